@@ -1,0 +1,44 @@
+#include "estimator/cylinder/azimuth_mapping.h"
+
+#include <cmath>
+#include <algorithm>
+#include <limits>
+
+namespace weavefit {
+
+double Projection::VisibleLimbRad() const {
+  if (!IsPerspective()) return M_PI / 2.0;
+  return std::acos(radius_mm / camera_distance_mm);
+}
+
+double OffsetFromAzimuth(double azimuth_rad, const Projection& projection) {
+  if (!projection.IsPerspective()) return std::sin(azimuth_rad);
+  const double r = projection.radius_mm;
+  const double d = projection.camera_distance_mm;
+  return std::sqrt(d * d - r * r) * std::sin(azimuth_rad) /
+         (d - r * std::cos(azimuth_rad));
+}
+
+double AzimuthFromOffset(double offset, const Projection& projection) {
+  if (!(std::fabs(offset) <= 1.0)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  if (!projection.IsPerspective()) return std::asin(offset);
+  // sin φ + t·R·cos φ = t·D with t = offset / sqrt(D² − R²), i.e.
+  // A·sin(φ + δ) = t·D, A = sqrt(1 + t²R²), δ = atan(t·R).
+  const double r = projection.radius_mm;
+  const double d = projection.camera_distance_mm;
+  const double t = offset / std::sqrt(d * d - r * r);
+  const double a = std::sqrt(1.0 + t * t * r * r);
+  const double s = std::clamp(t * d / a, -1.0, 1.0);
+  return std::asin(s) - std::atan(t * r);
+}
+
+double ViewAngleRad(double azimuth_rad, const Projection& projection) {
+  if (!projection.IsPerspective()) return 0.0;
+  const double r = projection.radius_mm;
+  const double d = projection.camera_distance_mm;
+  return -std::atan(r * std::sin(azimuth_rad) / (d - r * std::cos(azimuth_rad)));
+}
+
+}  // namespace weavefit

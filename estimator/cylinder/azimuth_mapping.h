@@ -1,0 +1,35 @@
+// Mapping between image offsets from the cylinder axis and azimuth φ
+// (DESIGN.md §2), orthographic or perspective.
+#ifndef WEAVEFIT_ESTIMATOR_CYLINDER_AZIMUTH_MAPPING_H_
+#define WEAVEFIT_ESTIMATOR_CYLINDER_AZIMUTH_MAPPING_H_
+
+namespace weavefit {
+
+// How the camera sees the cylinder.
+struct Projection {
+  double radius_mm = 23.0;           // cylinder radius
+  double camera_distance_mm = 0.0;   // from the axis; 0 = orthographic
+
+  bool IsPerspective() const { return camera_distance_mm > 0.0; }
+  // Azimuth of the visible limb: π/2 orthographic, arccos(R/D) perspective.
+  double VisibleLimbRad() const;
+};
+
+// Signed offset of the image of a surface point at azimuth φ from the axis,
+// as a fraction of the observed limb half-width (the limb is at ±1).
+// Orthographic: sin φ. Perspective (camera at distance D from the axis):
+// sqrt(D² − R²)·sin φ / (D − R·cos φ).
+double OffsetFromAzimuth(double azimuth_rad, const Projection& projection);
+
+// Inverse of OffsetFromAzimuth on the visible branch; NaN when |offset| > 1.
+double AzimuthFromOffset(double offset, const Projection& projection);
+
+// Direction to the camera seen from the surface point at φ, as an angle from
+// +y positive toward the image right: 0 orthographic,
+// −atan(R·sin φ / (D − R·cos φ)) perspective. The mirror condition for a facet
+// of tilt β is then φ + β = (α + v)/2.
+double ViewAngleRad(double azimuth_rad, const Projection& projection);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_CYLINDER_AZIMUTH_MAPPING_H_

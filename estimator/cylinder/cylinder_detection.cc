@@ -1,0 +1,252 @@
+#include "estimator/cylinder/cylinder_detection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+
+namespace weavefit {
+namespace {
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  return v[mid];
+}
+
+struct LimbPoint {
+  double row = 0.0;
+  double column = 0.0;
+};
+
+struct Line {
+  double at_center = 0.0;  // column at the reference row
+  double slope = 0.0;      // columns per row
+  double rms = 0.0;
+  std::vector<bool> inlier;
+};
+
+// Least-squares line column = a + slope·(row − center_row), then one pass of
+// outlier rejection (stray glints, mount edges) and a refit.
+Line FitLimbLine(const std::vector<LimbPoint>& points, double center_row) {
+  Line line;
+  line.inlier.assign(points.size(), true);
+  for (int pass = 0; pass < 2; ++pass) {
+    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (!line.inlier[i]) continue;
+      const double x = points[i].row - center_row;
+      sw += 1;
+      sx += x;
+      sy += points[i].column;
+      sxx += x * x;
+      sxy += x * points[i].column;
+    }
+    const double det = sw * sxx - sx * sx;
+    if (sw >= 3 && det > 1e-9) {
+      line.slope = (sw * sxy - sx * sy) / det;
+      line.at_center = (sy - line.slope * sx) / sw;
+    } else {
+      line.slope = 0.0;
+      line.at_center = sw > 0 ? sy / sw : 0.0;
+    }
+    std::vector<double> abs_residuals;
+    for (const LimbPoint& p : points) {
+      abs_residuals.push_back(std::fabs(
+          p.column - line.at_center - line.slope * (p.row - center_row)));
+    }
+    const double tolerance =
+        std::max(1.5, 3.0 * 1.4826 * Median(abs_residuals));
+    double sum_sq = 0;
+    int n = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      line.inlier[i] = abs_residuals[i] <= tolerance;
+      if (line.inlier[i]) {
+        sum_sq += abs_residuals[i] * abs_residuals[i];
+        ++n;
+      }
+    }
+    line.rms = n > 0 ? std::sqrt(sum_sq / n) : 0.0;
+  }
+  return line;
+}
+
+// Sub-pixel position where a band profile crosses `level` between columns
+// a and b (a < b or a > b), by linear interpolation between pixel centres.
+double Crossing(const std::vector<double>& profile, int a, int b,
+                double level) {
+  const int step = b > a ? 1 : -1;
+  for (int x = a; x != b; x += step) {
+    const double p0 = profile[x] - level;
+    const double p1 = profile[x + step] - level;
+    if ((p0 <= 0) != (p1 <= 0)) {
+      const double t = p0 / (p0 - p1);
+      return x + step * t;
+    }
+  }
+  return a;
+}
+
+}  // namespace
+
+absl::Status CylinderDetectionOptions::Validate() const {
+  if (num_bands < 3) return absl::InvalidArgumentError("num_bands must be >= 3");
+  if (!(background_fraction > 0 && background_fraction < 0.25)) {
+    return absl::InvalidArgumentError("background_fraction must be in (0, 0.25)");
+  }
+  if (!(edge_sigmas > 0)) return absl::InvalidArgumentError("edge_sigmas must be > 0");
+  if (region.width < 0 || region.height < 0 || region.x < 0 || region.y < 0) {
+    return absl::InvalidArgumentError("region must have non-negative x, y, width, height");
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<CylinderGeometry> DetectCylinder(
+    const Image& luminance, const CylinderDetectionOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (luminance.channels != 1) {
+    return absl::InvalidArgumentError("DetectCylinder needs a one-channel image");
+  }
+  PixelRegion region = options.region;
+  if (region.IsEmpty()) region = {0, 0, luminance.width, luminance.height};
+  if (region.x + region.width > luminance.width ||
+      region.y + region.height > luminance.height) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "region of interest ", region.x, ",", region.y, " ", region.width, "x",
+        region.height, " extends beyond the ", luminance.width, "x",
+        luminance.height, " image"));
+  }
+  const int bands = std::min(options.num_bands, region.height);
+  if (region.width < 4 * options.min_radius_px || bands < 3) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "image region ", region.width, "x", region.height,
+        " is too small to hold a cylinder"));
+  }
+
+  // Background level and noise from the columns at both sides.
+  const int side = std::max(2, static_cast<int>(std::lround(
+                                   options.background_fraction * region.width)));
+  const int row_step = std::max(1, region.height / 256);
+  std::vector<double> samples;
+  for (int y = region.y; y < region.y + region.height; y += row_step) {
+    for (int i = 0; i < side; ++i) {
+      samples.push_back(luminance.At(region.x + i, y));
+      samples.push_back(luminance.At(region.x + region.width - 1 - i, y));
+    }
+  }
+  const double background = Median(samples);
+  for (double& s : samples) s = std::fabs(s - background);
+  const double noise = std::max(1.4826 * Median(samples), 1e-6);
+
+  // Limbs per band of rows.
+  const double center_row = region.y + (region.height - 1) / 2.0;
+  std::vector<LimbPoint> left_points;
+  std::vector<LimbPoint> right_points;
+  std::vector<int> band_first(bands);
+  std::vector<int> band_last(bands);
+  std::vector<double> profile(region.width);
+  for (int b = 0; b < bands; ++b) {
+    const int y0 = region.y + static_cast<int>(
+                                  static_cast<long long>(b) * region.height / bands);
+    const int y1 = region.y + static_cast<int>(static_cast<long long>(b + 1) *
+                                                region.height / bands);
+    band_first[b] = y0;
+    band_last[b] = y1 - 1;
+    std::fill(profile.begin(), profile.end(), 0.0);
+    for (int y = y0; y < y1; ++y) {
+      for (int x = 0; x < region.width; ++x) {
+        profile[x] += luminance.At(region.x + x, y);
+      }
+    }
+    double peak = background;
+    for (double& p : profile) {
+      p /= (y1 - y0);
+      peak = std::max(peak, p);
+    }
+    const double threshold =
+        background + std::max(options.edge_sigmas * noise / std::sqrt(y1 - y0),
+                              0.005 * (peak - background));
+    auto above = [&](int x) {
+      return x >= 0 && x < region.width && profile[x] > threshold;
+    };
+    int left = -1;
+    for (int x = side; x + 2 < region.width - side; ++x) {
+      if (above(x) && above(x + 1) && above(x + 2)) {
+        left = x;
+        break;
+      }
+    }
+    int right = -1;
+    for (int x = region.width - 1 - side; x - 2 >= side; --x) {
+      if (above(x) && above(x - 1) && above(x - 2)) {
+        right = x;
+        break;
+      }
+    }
+    if (left < 0 || right < 0 || right - left < 2 * options.min_radius_px) {
+      continue;
+    }
+    // Sub-pixel limb: where the profile crosses half-way between the
+    // background and the surface level just inside the limb.
+    auto inside_level = [&](int from, int step) {
+      std::vector<double> v;
+      for (int k = 2; k <= 6; ++k) {
+        const int x = from + step * k;
+        if (x >= 0 && x < region.width) v.push_back(profile[x]);
+      }
+      return Median(v);
+    };
+    const double left_half = 0.5 * (background + inside_level(left, +1));
+    const double right_half = 0.5 * (background + inside_level(right, -1));
+    const double row = 0.5 * (y0 + y1 - 1);
+    left_points.push_back(
+        {row, region.x + Crossing(profile, std::max(left - 3, 0),
+                                  std::min(left + 3, region.width - 1),
+                                  left_half)});
+    right_points.push_back(
+        {row, region.x + Crossing(profile, std::min(right + 3, region.width - 1),
+                                  std::max(right - 3, 0), right_half)});
+  }
+  if (left_points.size() < 3) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no cylinder found: only ", left_points.size(), " of ", bands,
+        " row bands show two limbs above the background (level ", background,
+        ", noise ", noise, ")"));
+  }
+
+  const Line left = FitLimbLine(left_points, center_row);
+  const Line right = FitLimbLine(right_points, center_row);
+  CylinderGeometry g;
+  g.center_row_px = center_row;
+  g.center_x_px = 0.5 * (left.at_center + right.at_center);
+  const double slope = 0.5 * (left.slope + right.slope);
+  g.axis_angle_rad = std::atan(-slope);
+  g.radius_px = 0.5 * (right.at_center - left.at_center) * std::cos(g.axis_angle_rad);
+  g.limb_rms_px = std::sqrt(0.5 * (left.rms * left.rms + right.rms * right.rms));
+  g.left_observed = true;
+  g.right_observed = true;
+  if (g.radius_px < options.min_radius_px) {
+    return absl::InvalidArgumentError("no cylinder found: limbs too close together");
+  }
+  // Usable rows: from the first to the last band whose limbs agree with the
+  // fitted lines (ends of the cylinder and the mount are excluded).
+  int first = -1;
+  int last = -1;
+  for (std::size_t i = 0; i < left_points.size(); ++i) {
+    if (!left.inlier[i] || !right.inlier[i]) continue;
+    const int band = static_cast<int>(
+        std::lround((left_points[i].row - region.y) * bands / region.height - 0.5));
+    const int b = std::clamp(band, 0, bands - 1);
+    if (first < 0 || b < first) first = b;
+    if (last < 0 || b > last) last = b;
+  }
+  if (first < 0) return absl::InvalidArgumentError("no cylinder found: limbs inconsistent");
+  g.top_row = band_first[first];
+  g.bottom_row = band_last[last];
+  return g;
+}
+
+}  // namespace weavefit

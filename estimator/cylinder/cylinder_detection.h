@@ -1,0 +1,73 @@
+// Finding the cylinder in a photograph: limbs, axis, radius, usable rows.
+#ifndef WEAVEFIT_ESTIMATOR_CYLINDER_CYLINDER_DETECTION_H_
+#define WEAVEFIT_ESTIMATOR_CYLINDER_CYLINDER_DETECTION_H_
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "estimator/io/image.h"
+
+namespace weavefit {
+
+// The cylinder as seen in the image, in pixels (DESIGN.md §2).
+struct CylinderGeometry {
+  // Axis column at row center_row_px.
+  double center_x_px = 0.0;
+  // The reference row: the middle row of the analysed region.
+  double center_row_px = 0.0;
+  // Observed limb half-width, measured perpendicular to the axis.
+  double radius_px = 0.0;
+  // Axis tilt, positive when the top of the axis leans toward the image right.
+  double axis_angle_rad = 0.0;
+  // Usable surface rows, inclusive.
+  int top_row = 0;
+  int bottom_row = 0;
+  bool left_observed = false;
+  bool right_observed = false;
+  // RMS distance of the per-band limb points from the fitted lines.
+  double limb_rms_px = 0.0;
+
+  // Axis column at image row y.
+  double AxisColumn(double y) const {
+    return center_x_px + (center_row_px - y) * std::tan(axis_angle_rad);
+  }
+  // Signed perpendicular distance of pixel centre (x, y) from the axis, as a
+  // fraction of the radius (the limbs are at ±1).
+  double NormalisedOffset(double x, double y) const {
+    return (x - AxisColumn(y)) * std::cos(axis_angle_rad) / radius_px;
+  }
+};
+
+// A rectangle of pixels; empty (all zero) means the whole image.
+struct PixelRegion {
+  int x = 0;
+  int y = 0;
+  int width = 0;
+  int height = 0;
+  bool IsEmpty() const { return width == 0 && height == 0; }
+};
+
+struct CylinderDetectionOptions {
+  // Horizontal bands of rows in which limbs are located independently.
+  int num_bands = 24;
+  // Fraction of the image width at each side taken as background.
+  double background_fraction = 0.04;
+  // A limb must rise this many background noise sigmas (of a band mean).
+  double edge_sigmas = 8.0;
+  // Smallest acceptable radius in pixels.
+  double min_radius_px = 8.0;
+  PixelRegion region;
+
+  absl::Status Validate() const;
+};
+
+// Locates the cylinder in a one-channel linear image. INVALID_ARGUMENT when
+// no cylinder is found (the message says why).
+absl::StatusOr<CylinderGeometry> DetectCylinder(
+    const Image& luminance, const CylinderDetectionOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_CYLINDER_CYLINDER_DETECTION_H_

@@ -1,0 +1,338 @@
+#include "estimator/io/decode.h"
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
+#include <OpenEXR/ImfInputFile.h>
+
+#include <algorithm>
+#include <cstring>
+#include <exception>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+
+namespace weavefit {
+namespace {
+
+std::uint32_t ReadBigEndian32(const unsigned char* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
+         (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+}
+
+std::uint32_t ReadTiff(const unsigned char* p, int size, bool little) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < size; ++i) {
+    const int shift = little ? 8 * i : 8 * (size - 1 - i);
+    v |= std::uint32_t{p[i]} << shift;
+  }
+  return v;
+}
+
+absl::Status Malformed(const std::string& format, const std::string& what) {
+  return absl::InvalidArgumentError(
+      absl::StrCat("malformed ", format, " header: ", what));
+}
+
+absl::StatusOr<ImageHeader> ReadPngHeader(const unsigned char* p,
+                                          std::size_t n) {
+  if (n < 24 || std::memcmp(p + 12, "IHDR", 4) != 0) {
+    return Malformed("PNG", "no IHDR chunk (file truncated?)");
+  }
+  return ImageHeader{"png", static_cast<int>(ReadBigEndian32(p + 16)),
+                     static_cast<int>(ReadBigEndian32(p + 20))};
+}
+
+absl::StatusOr<ImageHeader> ReadJpegHeader(const unsigned char* p,
+                                           std::size_t n) {
+  std::size_t i = 2;
+  while (i + 4 <= n) {
+    if (p[i] != 0xFF) return Malformed("JPEG", "marker expected");
+    const unsigned char marker = p[i + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++i;
+      continue;
+    }
+    const std::size_t length = (std::size_t{p[i + 2]} << 8) | p[i + 3];
+    const bool is_sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 &&
+                        marker != 0xC8 && marker != 0xCC;
+    if (is_sof) {
+      if (i + 9 > n) break;
+      const int height = (p[i + 5] << 8) | p[i + 6];
+      const int width = (p[i + 7] << 8) | p[i + 8];
+      return ImageHeader{"jpeg", width, height};
+    }
+    if (length < 2) return Malformed("JPEG", "segment length below 2");
+    i += 2 + length;
+  }
+  return Malformed("JPEG", "no frame header (file truncated?)");
+}
+
+absl::StatusOr<ImageHeader> ReadTiffHeader(const unsigned char* p,
+                                           std::size_t n) {
+  const bool little = p[0] == 'I';
+  if (ReadTiff(p + 2, 2, little) != 42) {
+    return absl::InvalidArgumentError("BigTIFF files are not supported");
+  }
+  const std::uint64_t ifd = ReadTiff(p + 4, 4, little);
+  if (ifd + 2 > n) return Malformed("TIFF", "IFD offset beyond the file");
+  const std::uint32_t entries = ReadTiff(p + ifd, 2, little);
+  int width = -1;
+  int height = -1;
+  for (std::uint32_t e = 0; e < entries; ++e) {
+    const std::uint64_t at = ifd + 2 + 12ULL * e;
+    if (at + 12 > n) return Malformed("TIFF", "IFD truncated");
+    const std::uint32_t tag = ReadTiff(p + at, 2, little);
+    const std::uint32_t type = ReadTiff(p + at + 2, 2, little);
+    if (tag != 256 && tag != 257) continue;
+    const std::uint32_t value = type == 3 ? ReadTiff(p + at + 8, 2, little)
+                                          : ReadTiff(p + at + 8, 4, little);
+    (tag == 256 ? width : height) = static_cast<int>(value);
+  }
+  if (width < 0 || height < 0) return Malformed("TIFF", "no image size tags");
+  return ImageHeader{"tiff", width, height};
+}
+
+// An OpenEXR input stream over bytes held in memory.
+class MemoryIStream : public Imf::IStream {
+ public:
+  explicit MemoryIStream(const std::string& bytes)
+      : Imf::IStream("memory"), bytes_(bytes) {}
+  bool read(char c[], int n) override {
+    if (n < 0 || position_ + static_cast<std::uint64_t>(n) > bytes_.size()) {
+      throw std::runtime_error("EXR data truncated");
+    }
+    std::memcpy(c, bytes_.data() + position_, n);
+    position_ += n;
+    return position_ < bytes_.size();
+  }
+  std::uint64_t tellg() override { return position_; }
+  void seekg(std::uint64_t pos) override { position_ = pos; }
+
+ private:
+  const std::string& bytes_;
+  std::uint64_t position_ = 0;
+};
+
+absl::StatusOr<ImageHeader> ReadExrHeader(const std::string& bytes) {
+  try {
+    MemoryIStream stream(bytes);
+    Imf::InputFile file(stream);
+    const Imath::Box2i window = file.header().dataWindow();
+    return ImageHeader{"exr", window.max.x - window.min.x + 1,
+                       window.max.y - window.min.y + 1};
+  } catch (const std::exception& e) {
+    return Malformed("EXR", e.what());
+  }
+}
+
+absl::StatusOr<Image> DecodeExr(const std::string& bytes,
+                                const DecodeOptions& options,
+                                const ImageHeader& header) {
+  try {
+    MemoryIStream stream(bytes);
+    Imf::InputFile file(stream);
+    const Imath::Box2i window = file.header().dataWindow();
+    const Imf::ChannelList& list = file.header().channels();
+    std::vector<std::string> names;
+    if (list.findChannel("R") && list.findChannel("G") &&
+        list.findChannel("B")) {
+      names = {"R", "G", "B"};
+    } else if (list.findChannel("Y")) {
+      names = {"Y"};
+    } else if (list.begin() != list.end()) {
+      names = {list.begin().name()};
+    } else {
+      return absl::InvalidArgumentError("EXR file has no channels");
+    }
+    Image image;
+    image.width = header.width;
+    image.height = header.height;
+    image.channels = static_cast<int>(names.size());
+    image.format = "exr";
+    image.bit_depth = list.findChannel(names[0])->type == Imf::HALF ? 16 : 32;
+    image.pixels.assign(
+        static_cast<std::size_t>(image.width) * image.height * image.channels,
+        0.0f);
+    Imf::FrameBuffer frame;
+    const std::size_t x_stride = sizeof(float) * image.channels;
+    const std::size_t y_stride = x_stride * image.width;
+    // OpenEXR addresses pixel (x, y) at base + x·xStride + y·yStride with the
+    // data window's absolute coordinates: shift the base accordingly.
+    const std::ptrdiff_t origin =
+        -static_cast<std::ptrdiff_t>(window.min.x) * image.channels -
+        static_cast<std::ptrdiff_t>(window.min.y) * image.width *
+            image.channels;
+    for (int c = 0; c < image.channels; ++c) {
+      char* base = reinterpret_cast<char*>(image.pixels.data() + c) +
+                   origin * static_cast<std::ptrdiff_t>(sizeof(float));
+      frame.insert(names[c],
+                   Imf::Slice(Imf::FLOAT, base, x_stride, y_stride, 1, 1, 0.0));
+    }
+    file.setFrameBuffer(frame);
+    file.readPixels(window.min.y, window.max.y);
+    image.saturated.assign(static_cast<std::size_t>(image.width) * image.height,
+                           0);
+    for (std::size_t i = 0; i < image.saturated.size(); ++i) {
+      for (int c = 0; c < image.channels; ++c) {
+        const float v = image.pixels[i * image.channels + c];
+        if (!std::isfinite(v)) {
+          image.pixels[i * image.channels + c] = 0.0f;
+          image.saturated[i] = 1;
+        } else if (options.saturation_level > 0 &&
+                   v >= options.saturation_level) {
+          image.saturated[i] = 1;
+        }
+      }
+    }
+    return image;
+  } catch (const std::exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("could not decode EXR data: ", e.what()));
+  }
+}
+
+absl::StatusOr<Image> DecodeWithOpenCv(const std::string& bytes,
+                                       const DecodeOptions& options,
+                                       const ImageHeader& header) {
+  cv::Mat decoded;
+  try {
+    const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U,
+                      const_cast<char*>(bytes.data()));
+    decoded = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("could not decode ", header.format, " data: ", e.what()));
+  }
+  if (decoded.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "could not decode ", header.format, " data (truncated or corrupt file?)"));
+  }
+  if (decoded.cols != header.width || decoded.rows != header.height) {
+    return absl::InvalidArgumentError("decoded size differs from the header");
+  }
+  double full_scale = 1.0;
+  int bit_depth = 32;
+  switch (decoded.depth()) {
+    case CV_8U:
+      full_scale = 255.0;
+      bit_depth = 8;
+      break;
+    case CV_16U:
+      full_scale = 65535.0;
+      bit_depth = 16;
+      break;
+    case CV_32F:
+      break;
+    default:
+      return absl::InvalidArgumentError(
+          absl::StrCat("unsupported sample type in ", header.format, " file"));
+  }
+  const bool srgb = bit_depth == 8 && !options.pixels_linear;
+  const double saturation = options.saturation_level > 0
+                                ? options.saturation_level
+                                : (bit_depth == 32 ? 0.0 : full_scale);
+  const int in_channels = decoded.channels();
+  Image image;
+  image.width = decoded.cols;
+  image.height = decoded.rows;
+  image.channels = in_channels >= 3 ? 3 : 1;
+  image.format = header.format;
+  image.bit_depth = bit_depth;
+  image.pixels.resize(static_cast<std::size_t>(image.width) * image.height *
+                      image.channels);
+  image.saturated.assign(static_cast<std::size_t>(image.width) * image.height,
+                         0);
+  // Lookup table for 8-bit values; direct scaling otherwise.
+  float srgb_table[256];
+  for (int v = 0; v < 256; ++v) {
+    srgb_table[v] = srgb ? SrgbToLinear(v / 255.0f) : v / 255.0f;
+  }
+  cv::Mat as_float;
+  decoded.convertTo(as_float, CV_32F);
+  for (int y = 0; y < image.height; ++y) {
+    const float* row = as_float.ptr<float>(y);
+    for (int x = 0; x < image.width; ++x) {
+      const float* px = row + static_cast<std::size_t>(x) * in_channels;
+      const std::size_t i = static_cast<std::size_t>(y) * image.width + x;
+      bool saturated = false;
+      for (int c = 0; c < image.channels; ++c) {
+        // OpenCV stores BGR(A); Image is RGB.
+        const int source = image.channels == 3 ? 2 - c : 0;
+        const float raw = px[source];
+        if (!std::isfinite(raw)) {
+          saturated = true;
+          image.pixels[i * image.channels + c] = 0.0f;
+          continue;
+        }
+        if (saturation > 0 && raw >= saturation) saturated = true;
+        image.pixels[i * image.channels + c] =
+            bit_depth == 8 ? srgb_table[static_cast<int>(raw)]
+                           : static_cast<float>(raw / full_scale);
+      }
+      image.saturated[i] = saturated;
+    }
+  }
+  return image;
+}
+
+}  // namespace
+
+absl::Status DecodeOptions::Validate() const {
+  if (!(saturation_level >= 0.0)) {
+    return absl::InvalidArgumentError(
+        "saturation_level must be >= 0 (0 = the format's maximum)");
+  }
+  if (max_pixels <= 0) {
+    return absl::InvalidArgumentError("max_pixels must be > 0");
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ImageHeader> ReadImageHeader(const std::string& bytes) {
+  if (bytes.empty()) return absl::InvalidArgumentError("image is empty (0 bytes)");
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::size_t n = bytes.size();
+  absl::StatusOr<ImageHeader> header;
+  if (n >= 8 && std::memcmp(p, "\x89PNG\r\n\x1a\n", 8) == 0) {
+    header = ReadPngHeader(p, n);
+  } else if (n >= 3 && p[0] == 0xFF && p[1] == 0xD8 && p[2] == 0xFF) {
+    header = ReadJpegHeader(p, n);
+  } else if (n >= 8 && (std::memcmp(p, "II*\0", 4) == 0 ||
+                        std::memcmp(p, "MM\0*", 4) == 0 ||
+                        std::memcmp(p, "II+\0", 4) == 0 ||
+                        std::memcmp(p, "MM\0+", 4) == 0)) {
+    header = ReadTiffHeader(p, n);
+  } else if (n >= 4 && std::memcmp(p, "\x76\x2f\x31\x01", 4) == 0) {
+    header = ReadExrHeader(bytes);
+  } else {
+    return absl::InvalidArgumentError(
+        "unrecognised image format (expected PNG, TIFF, JPEG or EXR)");
+  }
+  if (!header.ok()) return header;
+  if (header->width <= 0 || header->height <= 0) {
+    return Malformed(header->format, "zero or negative image size");
+  }
+  return header;
+}
+
+absl::StatusOr<Image> DecodeImage(const std::string& bytes,
+                                  const DecodeOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
+  if (!header.ok()) return header.status();
+  const std::int64_t pixels =
+      static_cast<std::int64_t>(header->width) * header->height;
+  if (pixels > options.max_pixels) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "image of ", header->width, "x", header->height, " = ", pixels,
+        " pixels exceeds the limit of ", options.max_pixels, " pixels"));
+  }
+  if (header->format == "exr") return DecodeExr(bytes, options, *header);
+  return DecodeWithOpenCv(bytes, options, *header);
+}
+
+}  // namespace weavefit

@@ -1,0 +1,72 @@
+// The split-peak spacing by peak picking on the azimuthal profile: the
+// simplest estimator, and the one later methods are compared against.
+#ifndef WEAVEFIT_ESTIMATOR_PEAKS_PEAK_PICKING_H_
+#define WEAVEFIT_ESTIMATOR_PEAKS_PEAK_PICKING_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "estimator/cylinder/azimuth_mapping.h"
+#include "estimator/optics/radiance.h"
+#include "estimator/profile/profile_extraction.h"
+
+namespace weavefit {
+
+struct PeakPickingOptions {
+  // Gaussian smoothing of the profile before peaks are located (σ, degrees).
+  // Smoothing pulls caustic peaks inward, so keep it near the bin width.
+  double smoothing_deg = 0.35;
+  // Peaks are sought within this azimuth of the mirror point α/2.
+  double search_half_width_deg = 40.0;
+  // Each peak of a split must stand this many standard errors above the
+  // lowest point between the two peaks.
+  double min_dip_sigmas = 5.0;
+  // ...and at least this fraction of the lower peak's height.
+  double min_dip_fraction = 0.08;
+  // The lower peak must reach this fraction of the higher one.
+  double min_peak_ratio = 0.15;
+  // Valley-to-peak ratio below which the split reads as a sawtooth (nothing
+  // between the peaks) rather than a sinusoid (a filled lobe).
+  double sawtooth_valley_ratio = 0.2;
+  // Resamples of row blocks for the standard errors (0 disables them).
+  int bootstrap_samples = 100;
+  std::uint32_t seed = 20030301;
+
+  absl::Status Validate() const;
+};
+
+struct PeakPickingResult {
+  ProfileModel model = ProfileModel::kSmooth;
+  bool split_resolved = false;
+  // Azimuths of the two peaks (split) or both equal to the single peak.
+  double left_peak_rad = 0.0;
+  double right_peak_rad = 0.0;
+  // Spacing on the cylinder, corrected for perspective: 2·arctan(m).
+  double spacing_rad = 0.0;
+  double spacing_stderr_rad = 0.0;
+  double max_slope = 0.0;
+  double max_slope_stderr = 0.0;
+  // Mirror azimuth: midpoint of the peaks, or the single peak.
+  double mirror_rad = 0.0;
+  double mirror_stderr_rad = 0.0;
+  // Significance of the dip between the peaks, in standard errors
+  // (0 when there is no second peak).
+  double dip_sigmas = 0.0;
+  // Full width at half maximum of the single peak (SMOOTH only): a split
+  // narrower than this could not be seen.
+  double single_peak_fwhm_rad = 0.0;
+  std::vector<std::string> warnings;
+};
+
+// Locates the specular peak(s) near α/2 in the profile. INVALID_ARGUMENT when
+// the profile holds no usable lobe.
+absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
+                                            double phase_angle_rad,
+                                            const Projection& projection,
+                                            const PeakPickingOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_PEAKS_PEAK_PICKING_H_

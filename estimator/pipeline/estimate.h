@@ -1,0 +1,109 @@
+// The whole estimate for one photograph: decode → detect cylinder → profile
+// → peaks (DESIGN.md §1). Plain data in, plain data out; the daemon, the
+// client and the benchmarks all call this.
+#ifndef WEAVEFIT_ESTIMATOR_PIPELINE_ESTIMATE_H_
+#define WEAVEFIT_ESTIMATOR_PIPELINE_ESTIMATE_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/io/decode.h"
+#include "estimator/io/image.h"
+#include "estimator/optics/radiance.h"
+#include "estimator/peaks/peak_picking.h"
+#include "estimator/profile/profile_extraction.h"
+
+namespace weavefit {
+
+// What the lab knows about the photograph, in library units.
+struct Acquisition {
+  double phase_angle_rad = 0.0;        // signed, in (−π, π)
+  double cylinder_diameter_mm = 46.0;  // > 0
+  double camera_distance_mm = 0.0;     // from the axis; 0 = orthographic
+  PixelRegion region;                  // empty = whole image
+  bool pixels_linear = false;          // skip sRGB decoding of 8-bit files
+  double saturation_level = 0.0;       // file units; 0 = format maximum
+
+  // OK, or INVALID_ARGUMENT naming the field and the constraint it broke.
+  absl::Status Validate() const;
+  Projection GetProjection() const {
+    return Projection{cylinder_diameter_mm / 2.0, camera_distance_mm};
+  }
+};
+
+enum class Mode { kFast = 1, kBalanced = 2, kAccurate = 3 };
+
+struct EstimateOptions {
+  Mode mode = Mode::kBalanced;
+  std::int64_t max_pixels = 64LL * 1024 * 1024;  // decoded width × height
+  CylinderDetectionOptions detection;
+  ProfileOptions profile;
+  PeakPickingOptions peaks;
+
+  absl::Status Validate() const;
+};
+
+// One measured quantity in library units. When !resolved, value and stderr
+// are 0 and carry no meaning.
+struct Quantity {
+  double value = 0.0;
+  double stderr_value = 0.0;
+  bool resolved = false;
+};
+
+struct CandidateScore {
+  ProfileModel model = ProfileModel::kSmooth;
+  std::string method;
+  double score = 0.0;  // lower is better
+  bool selected = false;
+};
+
+struct StageTime {
+  std::string stage;
+  double milliseconds = 0.0;
+};
+
+struct ImageSummary {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  std::string format;
+  int bit_depth = 0;
+  std::int64_t saturated_pixels = 0;
+};
+
+struct Estimate {
+  ProfileModel model = ProfileModel::kSmooth;
+  Quantity peak_spacing_rad;
+  Quantity max_slope;
+  Quantity wavelength_mm;
+  Quantity amplitude_mm;
+  Quantity specular_azimuth_rad;
+  CylinderGeometry cylinder;
+  std::vector<CandidateScore> candidates;
+  std::vector<std::string> warnings;
+  std::vector<StageTime> timings;
+  ImageSummary image;
+  std::string method;
+  // One line for logs: model, spacing and slope with their errors.
+  std::string BriefReport() const;
+};
+
+// Estimates from an encoded file. INVALID_ARGUMENT for undecodable or
+// inconsistent input (including "no cylinder found"), RESOURCE_EXHAUSTED when
+// the image exceeds options.max_pixels.
+absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
+                                           const Acquisition& acquisition,
+                                           const EstimateOptions& options);
+
+// The same from a decoded image (any number of channels).
+absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
+                                           const Acquisition& acquisition,
+                                           const EstimateOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_PIPELINE_ESTIMATE_H_

@@ -1,0 +1,55 @@
+// The azimuthal radiance profile I(φ) ± σ(φ) of the cylinder's surface.
+#ifndef WEAVEFIT_ESTIMATOR_PROFILE_PROFILE_EXTRACTION_H_
+#define WEAVEFIT_ESTIMATOR_PROFILE_PROFILE_EXTRACTION_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "estimator/cylinder/azimuth_mapping.h"
+#include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/io/image.h"
+
+namespace weavefit {
+
+// Mean radiance per uniform azimuth bin over the usable rows. Bins with no
+// unmasked sample have count 0 and mean 0.
+struct Profile {
+  std::vector<double> azimuth_rad;  // bin centres, ascending
+  std::vector<double> mean;         // linear radiance, background included
+  std::vector<double> stderr_mean;  // standard error of mean, from row blocks
+  std::vector<int> count;           // unmasked pixels in the bin
+  double bin_width_rad = 0.0;
+  // Level and noise (robust sigma of one pixel) outside the cylinder.
+  double background = 0.0;
+  double background_noise = 0.0;
+  std::int64_t saturated_samples = 0;
+
+  // Partial sums per block of consecutive rows, so that estimators can
+  // resample over rows: block_sum[block·num_bins + bin].
+  int num_blocks = 0;
+  std::vector<double> block_sum;
+  std::vector<int> block_count;
+
+  int NumBins() const { return static_cast<int>(azimuth_rad.size()); }
+};
+
+struct ProfileOptions {
+  double bin_width_deg = 0.25;       // azimuth bin width
+  int num_blocks = 32;               // row blocks for the standard errors
+  double max_abs_azimuth_deg = 86.0; // bins beyond are dropped (limb pixels)
+
+  absl::Status Validate() const;
+};
+
+// Averages the usable rows of a one-channel linear image per azimuth bin,
+// along lines perpendicular to the (tilted) axis. Saturated pixels are left
+// out and counted. INVALID_ARGUMENT for inconsistent input.
+absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
+                                       const CylinderGeometry& geometry,
+                                       const Projection& projection,
+                                       const ProfileOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_PROFILE_PROFILE_EXTRACTION_H_

@@ -1,0 +1,8 @@
+# Unit tests of the library stages. One executable per stage source.
+function(weavefit_unit_test name source)
+  add_executable(${name} ${source})
+  target_link_libraries(${name} PRIVATE weavefit_estimator GTest::gtest_main
+    opencv_core opencv_imgcodecs)
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS unit)
+endfunction()
+include(GoogleTest)

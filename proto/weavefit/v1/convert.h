@@ -1,0 +1,36 @@
+// Conversions between the wire contract (weavefit.v1) and the library's
+// plain structs. Pure functions: the daemon and the in-process client use
+// the same ones, so their replies are identical.
+#ifndef WEAVEFIT_PROTO_WEAVEFIT_V1_CONVERT_H_
+#define WEAVEFIT_PROTO_WEAVEFIT_V1_CONVERT_H_
+
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "estimator/pipeline/estimate.h"
+#include "weavefit/v1/weavefit.pb.h"
+
+namespace weavefit {
+
+// Degrees → radians, 0 diameter → 46 mm, and validation of the result.
+// INVALID_ARGUMENT naming the wire field that is wrong.
+absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto);
+// The library's options for a request (mode), on top of `base`.
+EstimateOptions OptionsFromProto(const v1::EstimateOptions& proto,
+                                 const EstimateOptions& base);
+
+// The reply for an estimate (radians → degrees).
+v1::EstimateReply ReplyFromEstimate(const Estimate& estimate,
+                                    const std::string& sample_name);
+
+// Protobuf's JSON mapping with every field printed, including defaults.
+std::string ReplyToJson(const v1::EstimateReply& reply);
+absl::StatusOr<v1::EstimateReply> ReplyFromJson(const std::string& json);
+
+// {"error": {"code": "INVALID_ARGUMENT", "message": "..."}} for a status.
+std::string ErrorToJson(const absl::Status& status);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_PROTO_WEAVEFIT_V1_CONVERT_H_
