@@ -332,6 +332,19 @@ absl::StatusOr<Image> DecodeImage(const std::string& bytes,
         " pixels exceeds the limit of ", options.max_pixels, " pixels"));
   }
   if (header->format == "exr") return DecodeExr(bytes, options, *header);
+  // libjpeg only warns about a truncated stream and fills the missing rows
+  // with grey, so OpenCV would return made-up pixels: require the end-of-image
+  // marker after the last start-of-scan (0xFF cannot occur unstuffed in
+  // entropy-coded data).
+  if (header->format == "jpeg") {
+    const std::size_t sos = bytes.rfind("\xFF\xDA");
+    const std::size_t eoi = bytes.rfind("\xFF\xD9");
+    if (sos == std::string::npos || eoi == std::string::npos || eoi < sos) {
+      return absl::InvalidArgumentError(
+          "could not decode jpeg data: no end-of-image marker after the last "
+          "scan (truncated file?)");
+    }
+  }
   return DecodeWithOpenCv(bytes, options, *header);
 }
 

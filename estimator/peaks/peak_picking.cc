@@ -82,56 +82,48 @@ double RefineMaximum(const std::vector<double>& s, int i) {
   return i + std::clamp(0.5 * (s[i - 1] - s[i + 1]) / denom, -0.5, 0.5);
 }
 
-struct Located {
-  bool split = false;
-  int top = -1;
-  int other = -1;
-  double dip_sigmas = 0.0;
-  double valley_ratio = 0.0;
-};
+// Topographic prominence of the maximum at i within [lo, hi]: its height
+// above the higher of the two lowest points reached before a higher
+// sample (or the window's edge) on each side.
+double Prominence(const std::vector<double>& s, int i, int lo, int hi) {
+  double left_min = s[i];
+  for (int k = i - 1; k >= lo && s[k] <= s[i]; --k) left_min = std::min(left_min, s[k]);
+  double right_min = s[i];
+  for (int k = i + 1; k <= hi && s[k] <= s[i]; ++k) right_min = std::min(right_min, s[k]);
+  return s[i] - std::max(left_min, right_min);
+}
 
-// Finds the highest peak in [lo, hi] and, if it exists, the second peak that
-// forms a significant split with it around index `center`.
-Located Locate(const std::vector<double>& s, const std::vector<double>& se,
-               int lo, int hi, double center, double straddle_bins,
-               const PeakPickingOptions& options) {
-  Located out;
+// Maxima of s in [lo, hi] above `baseline` whose prominence exceeds
+// min_dip_sigmas standard errors and min_dip_fraction of their height above
+// the baseline, keeping those at least min_peak_ratio of the highest.
+std::vector<int> SignificantMaxima(const std::vector<double>& s,
+                                   const std::vector<double>& se, int lo,
+                                   int hi, double baseline,
+                                   const PeakPickingOptions& options) {
   std::vector<int> maxima;
+  double highest = 0.0;
   for (int i = std::max(lo, 1); i <= std::min(hi, static_cast<int>(s.size()) - 2); ++i) {
-    if (s[i] >= s[i - 1] && s[i] > s[i + 1]) maxima.push_back(i);
-  }
-  if (maxima.empty()) return out;
-  out.top = *std::max_element(maxima.begin(), maxima.end(),
-                              [&](int a, int b) { return s[a] < s[b]; });
-  double best_height = -1.0;
-  for (int j : maxima) {
-    if (j == out.top || std::abs(j - out.top) < 3) continue;
-    const int a = std::min(j, out.top);
-    const int b = std::max(j, out.top);
-    if (a > center + straddle_bins || b < center - straddle_bins) continue;
-    const double lower = std::min(s[a], s[b]);
-    if (lower < options.min_peak_ratio * s[out.top]) continue;
-    int valley = a;
-    for (int k = a; k <= b; ++k) {
-      if (s[k] < s[valley]) valley = k;
-    }
-    const int lower_index = s[a] < s[b] ? a : b;
-    const double dip = lower - s[valley];
-    const double sigma = std::hypot(se[valley], se[lower_index]);
-    const double significance = sigma > 0 ? dip / sigma : 1e9;
-    out.dip_sigmas = std::max(out.dip_sigmas, std::min(significance, 1e3));
-    if (dip < options.min_dip_fraction * lower ||
-        significance < options.min_dip_sigmas) {
+    if (!(s[i] >= s[i - 1] && s[i] > s[i + 1])) continue;
+    const double height = s[i] - baseline;
+    const double prominence = Prominence(s, i, lo, hi);
+    if (height <= 0.0 || prominence < options.min_dip_sigmas * se[i] ||
+        prominence < options.min_dip_fraction * height) {
       continue;
     }
-    if (s[j] > best_height) {
-      best_height = s[j];
-      out.other = j;
-      out.split = true;
-      out.valley_ratio = std::max(s[valley], 0.0) / lower;
-    }
+    maxima.push_back(i);
+    highest = std::max(highest, height);
   }
-  return out;
+  maxima.erase(std::remove_if(maxima.begin(), maxima.end(),
+                              [&](int i) { return s[i] - baseline < options.min_peak_ratio * highest; }),
+               maxima.end());
+  return maxima;
+}
+
+double MedianOf(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  auto mid = v.begin() + v.size() / 2;
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
 }
 
 // The highest local maximum within `radius` bins of `near`, refined.
@@ -165,6 +157,12 @@ absl::Status PeakPickingOptions::Validate() const {
   if (!(search_half_width_deg > 1.0 && search_half_width_deg <= 80.0)) {
     return absl::InvalidArgumentError("search_half_width_deg must be in (1, 80]");
   }
+  if (!(lobe_smoothing_deg >= smoothing_deg && lobe_smoothing_deg <= 10.0)) {
+    return absl::InvalidArgumentError("lobe_smoothing_deg must be in [smoothing_deg, 10]");
+  }
+  if (!(lobe_fraction > 0.0 && lobe_fraction < 1.0)) {
+    return absl::InvalidArgumentError("lobe_fraction must be in (0, 1)");
+  }
   if (!(min_dip_sigmas > 0.0)) return absl::InvalidArgumentError("min_dip_sigmas must be > 0");
   if (bootstrap_samples < 0) return absl::InvalidArgumentError("bootstrap_samples must be >= 0");
   return absl::OkStatus();
@@ -186,13 +184,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   auto azimuth_of = [&](double index) { return first + index * bin; };
 
   const std::vector<int> ones(profile.num_blocks, 1);
-  const double sigma_bins = options.smoothing_deg * kDeg / bin;
-  const std::vector<double> s = Smooth(MeanFromBlocks(profile, ones), sigma_bins);
-  // Smoothing averages about 2·sqrt(π)·σ bins: the standard errors shrink.
-  const double se_gain = sigma_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * sigma_bins) : 1.0;
-  std::vector<double> se(n);
-  for (int i = 0; i < n; ++i) se[i] = profile.stderr_mean[i] * se_gain;
-
+  const std::vector<double> raw = MeanFromBlocks(profile, ones);
   const double center = index_of(phase_angle_rad / 2.0);
   const double half = options.search_half_width_deg * kDeg / bin;
   const int lo = std::max(1, static_cast<int>(std::floor(center - half)));
@@ -203,15 +195,111 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         "visible part of the cylinder",
         phase_angle_rad / 2.0 / kDeg));
   }
-  const Located found = Locate(s, se, lo, hi, center, 3.0 * kDeg / bin, options);
-  if (found.top < 0 || s[found.top] <= 0.0) {
+
+  // Bins dominated by saturated pixels carry no level: raise them to their
+  // neighbours' maximum so that a clipped peak reads as one plateau rather
+  // than a dip between two false peaks.
+  std::vector<double> filled = raw;
+  int clipped_bins = 0;
+  for (int i = 0; i < n; ++i) {
+    const double total = profile.count[i] + profile.saturated[i];
+    if (total > 0 && profile.saturated[i] > 0.05 * total) {
+      ++clipped_bins;
+      double level = raw[i];
+      for (int k = std::max(0, i - 3); k <= std::min(n - 1, i + 3); ++k) level = std::max(level, raw[k]);
+      filled[i] = level;
+    }
+  }
+
+  // One photograph samples only the weave phases of the threads in view, so
+  // its profile is a comb of glints around the analytic lobe (DESIGN.md §3).
+  // The lobe is found on a heavily smoothed profile; the split peaks are the
+  // outermost significant maxima of the lightly smoothed profile inside it
+  // (the caustic glints bound the lobe).
+  const double light_bins = options.smoothing_deg * kDeg / bin;
+  const std::vector<double> s = Smooth(filled, light_bins);
+  const std::vector<double> heavy = Smooth(filled, options.lobe_smoothing_deg * kDeg / bin);
+  // Smoothing averages about 2·sqrt(π)·σ bins: the standard errors shrink.
+  const double gain = light_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * light_bins) : 1.0;
+  // Significance is judged against pixel noise (the background's, per
+  // bin), not against the spread over rows: that spread is mostly the weave's
+  // own structure, which is signal here.
+  std::vector<double> se(n);
+  for (int i = 0; i < n; ++i) {
+    se[i] = profile.count[i] <= 0.0
+                ? 1e30  // no data: never significant
+                : gain * std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
+  }
+  // Baseline: a straight line between the medians of the window's two ends,
+  // which takes out the background and, to first order, the slow rise of
+  // the grazing scatter toward a limb.
+  const int edge = std::max(3, (hi - lo) / 10);
+  const double base_lo = MedianOf(std::vector<double>(s.begin() + lo, s.begin() + lo + edge));
+  const double base_hi = MedianOf(std::vector<double>(s.begin() + hi - edge + 1, s.begin() + hi + 1));
+  const double at_lo = lo + 0.5 * (edge - 1);
+  const double at_hi = hi - 0.5 * (edge - 1);
+  std::vector<double> baseline(n);
+  for (int i = 0; i < n; ++i) {
+    baseline[i] = base_lo + (base_hi - base_lo) * (i - at_lo) / (at_hi - at_lo);
+  }
+  // The lobe spans from the first to the last bin where the heavily
+  // smoothed profile rises above lobe_fraction of its highest excess.
+  double lobe_max = 0.0;
+  for (int i = lo; i <= hi; ++i) lobe_max = std::max(lobe_max, heavy[i] - baseline[i]);
+  int lobe_lo = -1;
+  int lobe_hi = -1;
+  for (int i = lo; i <= hi; ++i) {
+    if (heavy[i] - baseline[i] > options.lobe_fraction * lobe_max) {
+      if (lobe_lo < 0) lobe_lo = i;
+      lobe_hi = i;
+    }
+  }
+  if (lobe_lo < 0) {
+    return absl::InvalidArgumentError(
+        "no specular lobe near half the phase angle: check the phase angle "
+        "and that the cylinder is lit");
+  }
+  const int margin = static_cast<int>(std::ceil(2.0 * options.lobe_smoothing_deg * kDeg / bin)) + 2;
+  lobe_lo = std::max(lo, lobe_lo - margin);
+  lobe_hi = std::min(hi, lobe_hi + margin);
+  std::vector<double> excess(n);
+  for (int i = 0; i < n; ++i) excess[i] = s[i] - baseline[i];
+  const std::vector<int> maxima = SignificantMaxima(excess, se, lobe_lo, lobe_hi, 0.0, options);
+  if (maxima.empty()) {
     return absl::InvalidArgumentError(
         "no specular peak near half the phase angle: check the phase angle "
         "and that the cylinder is lit");
   }
+  const int left_index = *std::min_element(maxima.begin(), maxima.end());
+  const int right_index = *std::max_element(maxima.begin(), maxima.end());
+  const int top_index = *std::max_element(maxima.begin(), maxima.end(),
+                                          [&](int a, int b) { return s[a] < s[b]; });
+  const double sigma_bins = light_bins;
 
   PeakPickingResult result;
-  result.dip_sigmas = found.dip_sigmas;
+  result.smoothing_rad = options.smoothing_deg * kDeg;
+  if (clipped_bins > 0) {
+    result.warnings.push_back(absl::StrFormat(
+        "%d azimuth bins are more than 5%% saturated: their level was "
+        "raised to their neighbours' maximum", clipped_bins));
+  }
+  const bool split = right_index - left_index >= 3;
+  if (split) {
+    const double lower = std::min(excess[left_index], excess[right_index]);
+    result.dip_sigmas = std::min(
+        {Prominence(excess, left_index, lobe_lo, lobe_hi) / se[left_index],
+         Prominence(excess, right_index, lobe_lo, lobe_hi) / se[right_index], 1e3});
+    // Mean level over the middle half between the peaks, against the
+    // lower peak: a filled lobe (sinusoid) or an empty one (sawtooth).
+    const int q = (right_index - left_index) / 4;
+    double middle = 0.0;
+    for (int k = left_index + q; k <= right_index - q; ++k) middle += excess[k];
+    middle /= (right_index - left_index - 2 * q + 1);
+    result.valley_ratio = std::max(middle, 0.0) / lower;
+  } else {
+    result.dip_sigmas = 0.0;
+  }
+
   auto spacing_of = [&](double left_rad, double right_rad) {
     // β at each peak (DESIGN.md §2 with the perspective view angle v); the
     // facet tilts there are ±arctan m, so their difference is 2·arctan m.
@@ -225,17 +313,19 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   auto resample = [&]() {
     std::vector<int> w(profile.num_blocks, 0);
     for (int k = 0; k < profile.num_blocks; ++k) ++w[pick(rng)];
-    return Smooth(MeanFromBlocks(profile, w), sigma_bins);
+    std::vector<double> t = MeanFromBlocks(profile, w);
+    for (int i = 0; i < n; ++i) {
+      if (filled[i] != raw[i]) t[i] = filled[i];  // clipped bins as above
+    }
+    return Smooth(t, sigma_bins);
   };
   const double quantisation = bin / std::sqrt(12.0);
 
-  if (found.split) {
-    const int a = std::min(found.top, found.other);
-    const int b = std::max(found.top, found.other);
-    const double left = RefineMaximum(s, a);
-    const double right = RefineMaximum(s, b);
+  if (split) {
+    const double left = RefineMaximum(s, left_index);
+    const double right = RefineMaximum(s, right_index);
     result.split_resolved = true;
-    result.model = found.valley_ratio < options.sawtooth_valley_ratio
+    result.model = result.valley_ratio < options.sawtooth_valley_ratio
                        ? ProfileModel::kSawtooth
                        : ProfileModel::kSinusoid;
     result.left_peak_rad = azimuth_of(left);
@@ -244,7 +334,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     result.mirror_rad = 0.5 * (result.left_peak_rad + result.right_peak_rad);
     std::vector<double> spacings;
     std::vector<double> mirrors;
-    const double radius = std::max(3.0, 0.25 * (right - left));
+    const double radius = std::max(2.0, 0.5 * kDeg / bin);
     for (int r = 0; r < options.bootstrap_samples; ++r) {
       const std::vector<double> t = resample();
       const double l = azimuth_of(NearestPeak(t, left, radius));
@@ -252,8 +342,29 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       spacings.push_back(spacing_of(l, rr));
       mirrors.push_back(0.5 * (l + rr));
     }
-    result.spacing_stderr_rad = std::hypot(Stddev(spacings), std::sqrt(2.0) * quantisation);
-    result.mirror_stderr_rad = std::hypot(Stddev(mirrors), quantisation / std::sqrt(2.0));
+    // Comb granularity: with few weave phases in view, the outermost glint
+    // may stand up to about one tooth spacing inside the caustic (seen on
+    // renders: 1–2 deg per side at 3.7 deg spacing). Count half the spacing
+    // as one standard error per side (DESIGN.md §3: count the structure).
+    double comb_rad = 0.0;
+    if (maxima.size() >= 3) {
+      std::vector<int> sorted = maxima;
+      std::sort(sorted.begin(), sorted.end());
+      std::vector<double> gaps;
+      for (std::size_t k = 1; k < sorted.size(); ++k) gaps.push_back((sorted[k] - sorted[k - 1]) * bin);
+      comb_rad = 0.5 * MedianOf(gaps);
+      result.warnings.push_back(absl::StrFormat(
+          "the lobe is a comb of glints (%d maxima, median spacing %.2f deg): "
+          "too few weave phases in view for a smooth profile; its granularity "
+          "is counted in the standard errors",
+          static_cast<int>(maxima.size()), MedianOf(gaps) / kDeg));
+    }
+    result.spacing_stderr_rad = std::sqrt(std::pow(Stddev(spacings), 2) +
+                                          2.0 * quantisation * quantisation +
+                                          2.0 * comb_rad * comb_rad);
+    result.mirror_stderr_rad = std::sqrt(std::pow(Stddev(mirrors), 2) +
+                                         0.5 * quantisation * quantisation +
+                                         0.5 * comb_rad * comb_rad);
     result.max_slope = std::tan(0.5 * result.spacing_rad);
     const double sec = 1.0 / std::cos(0.5 * result.spacing_rad);
     result.max_slope_stderr = 0.5 * sec * sec * result.spacing_stderr_rad;
@@ -262,17 +373,15 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         "and max slope are biased low by up to about the peak width; "
         "SINUSOID vs SAWTOOTH is judged from the valley between the peaks only");
   } else {
-    const double peak = RefineMaximum(s, found.top);
+    const double peak = RefineMaximum(s, top_index);
     result.model = ProfileModel::kSmooth;
     result.left_peak_rad = result.right_peak_rad = result.mirror_rad = azimuth_of(peak);
     // Full width at half maximum above the window's floor.
-    double floor_level = s[found.top];
-    for (int i = lo; i <= hi; ++i) floor_level = std::min(floor_level, s[i]);
-    const double half_level = 0.5 * (s[found.top] + floor_level);
-    int l = found.top;
-    while (l > lo && s[l] > half_level) --l;
-    int r = found.top;
-    while (r < hi && s[r] > half_level) ++r;
+    const double half_level = 0.5 * excess[top_index];
+    int l = top_index;
+    while (l > lo && excess[l] > half_level) --l;
+    int r = top_index;
+    while (r < hi && excess[r] > half_level) ++r;
     result.single_peak_fwhm_rad = (r - l) * bin;
     std::vector<double> mirrors;
     for (int k = 0; k < options.bootstrap_samples; ++k) {

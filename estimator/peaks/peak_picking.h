@@ -17,19 +17,26 @@ namespace weavefit {
 struct PeakPickingOptions {
   // Gaussian smoothing of the profile before peaks are located (σ, degrees).
   // Smoothing pulls caustic peaks inward, so keep it near the bin width.
-  double smoothing_deg = 0.35;
+  double smoothing_deg = 0.25;
+  // Smoothing (σ, degrees) of the profile on which the lobe is delimited;
+  // about half a thread period in azimuth hides the comb of glints.
+  double lobe_smoothing_deg = 2.0;
+  // The lobe extends where the heavily smoothed profile exceeds this
+  // fraction of its peak above the baseline.
+  double lobe_fraction = 0.2;
   // Peaks are sought within this azimuth of the mirror point α/2.
   double search_half_width_deg = 40.0;
-  // Each peak of a split must stand this many standard errors above the
-  // lowest point between the two peaks.
+  // A peak must stand out from its surroundings (topographic prominence)
+  // by this many standard errors...
   double min_dip_sigmas = 5.0;
-  // ...and at least this fraction of the lower peak's height.
+  // ...and by at least this fraction of its height above the baseline.
   double min_dip_fraction = 0.08;
-  // The lower peak must reach this fraction of the higher one.
+  // Maxima lower than this fraction of the highest are ignored (comb teeth
+  // in the middle of the lobe, noise).
   double min_peak_ratio = 0.15;
   // Valley-to-peak ratio below which the split reads as a sawtooth (nothing
   // between the peaks) rather than a sinusoid (a filled lobe).
-  double sawtooth_valley_ratio = 0.2;
+  double sawtooth_valley_ratio = 0.1;
   // Resamples of row blocks for the standard errors (0 disables them).
   int bootstrap_samples = 100;
   std::uint32_t seed = 20030301;
@@ -57,6 +64,10 @@ struct PeakPickingResult {
   // Full width at half maximum of the single peak (SMOOTH only): a split
   // narrower than this could not be seen.
   double single_peak_fwhm_rad = 0.0;
+  // Smoothing (σ) at which the peaks were located.
+  double smoothing_rad = 0.0;
+  // Mean level between the peaks over the lower peak's height.
+  double valley_ratio = 0.0;
   std::vector<std::string> warnings;
 };
 

@@ -12,17 +12,18 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
+// Wall time per stage, appended in order.
 class StageClock {
  public:
-  explicit StageClock(std::vector<StageTime>* out) : out_(out) {}
   void Lap(const char* stage) {
     const auto now = std::chrono::steady_clock::now();
-    out_->push_back({stage, std::chrono::duration<double, std::milli>(now - last_).count()});
+    laps_.push_back({stage, std::chrono::duration<double, std::milli>(now - last_).count()});
     last_ = now;
   }
+  const std::vector<StageTime>& laps() const { return laps_; }
 
  private:
-  std::vector<StageTime>* out_;
+  std::vector<StageTime> laps_;
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
@@ -49,8 +50,11 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
       PickPeaks(*profile, acquisition.phase_angle_rad, projection, options.peaks);
   if (!peaks.ok()) return peaks.status();
   clock.Lap("peaks");
+  estimate.timings = clock.laps();
 
   estimate.method = "peak-picking";
+  estimate.profile = *std::move(profile);
+  estimate.smoothing_rad = peaks->smoothing_rad;
   estimate.model = peaks->model;
   estimate.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true};
   if (peaks->split_resolved) {
@@ -69,9 +73,9 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                  peaks->split_resolved});
   estimate.warnings.insert(estimate.warnings.end(), peaks->warnings.begin(),
                            peaks->warnings.end());
-  if (profile->saturated_samples > 0) {
+  if (estimate.profile.saturated_samples > 0) {
     estimate.warnings.push_back(absl::StrCat(
-        profile->saturated_samples,
+        estimate.profile.saturated_samples,
         " saturated pixels on the cylinder were left out of the profile; "
         "lower the exposure if they fall on the peaks"));
   }
@@ -139,7 +143,7 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
   Estimate estimate;
   estimate.image = {image.width, image.height, image.channels, image.format,
                     image.bit_depth, image.SaturatedCount()};
-  StageClock clock(&estimate.timings);
+  StageClock clock;
   return EstimateFromLuminance(image, acquisition, options, std::move(estimate), clock);
 }
 
@@ -149,7 +153,7 @@ absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
   if (absl::Status s = acquisition.Validate(); !s.ok()) return s;
   if (absl::Status s = options.Validate(); !s.ok()) return s;
   Estimate estimate;
-  StageClock clock(&estimate.timings);
+  StageClock clock;
   DecodeOptions decode;
   decode.pixels_linear = acquisition.pixels_linear;
   decode.saturation_level = acquisition.saturation_level;

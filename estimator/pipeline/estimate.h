@@ -88,6 +88,10 @@ struct Estimate {
   std::vector<StageTime> timings;
   ImageSummary image;
   std::string method;
+  // The azimuthal profile the estimate was made from, and the smoothing
+  // (σ, rad) the peaks were located at: for plots and diagnostics.
+  Profile profile;
+  double smoothing_rad = 0.0;
   // One line for logs: model, spacing and slope with their errors.
   std::string BriefReport() const;
 };

@@ -46,7 +46,8 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     profile.azimuth_rad[i] = (i - half_bins + 0.5) * bin;
   }
   profile.block_sum.assign(static_cast<std::size_t>(num_bins) * options.num_blocks, 0.0);
-  profile.block_count.assign(profile.block_sum.size(), 0);
+  profile.block_count.assign(profile.block_sum.size(), 0.0);
+  profile.saturated.assign(num_bins, 0.0);
 
   const int rows = geometry.bottom_row - geometry.top_row + 1;
   std::vector<double> outside;
@@ -54,7 +55,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     const int block = static_cast<int>(
         static_cast<long long>(y - geometry.top_row) * options.num_blocks / rows);
     double* sums = &profile.block_sum[static_cast<std::size_t>(block) * num_bins];
-    int* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
+    double* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
     const double axis = geometry.AxisColumn(y);
     const double reach = 1.0 / std::cos(geometry.axis_angle_rad);
     const int x0 = std::max(0, static_cast<int>(std::floor(axis - geometry.radius_px * reach)) - 1);
@@ -67,16 +68,29 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
       }
     }
     for (int x = x0; x <= x1; ++x) {
-      const double phi = AzimuthFromOffset(geometry.NormalisedOffset(x, y), projection);
-      if (!(std::fabs(phi) < limb)) continue;
-      const int b = static_cast<int>(std::floor(phi / bin)) + half_bins;
-      if (b < 0 || b >= num_bins) continue;
-      if (luminance.IsSaturated(x, y)) {
-        ++profile.saturated_samples;
-        continue;
+      // The pixel's footprint in azimuth, clipped to the visible range.
+      double a = AzimuthFromOffset(std::clamp(geometry.NormalisedOffset(x - 0.5, y), -1.0, 1.0), projection);
+      double b = AzimuthFromOffset(std::clamp(geometry.NormalisedOffset(x + 0.5, y), -1.0, 1.0), projection);
+      a = std::max(a, -limb);
+      b = std::min(b, limb);
+      if (!(b > a)) continue;
+      const bool saturated = luminance.IsSaturated(x, y);
+      if (saturated) ++profile.saturated_samples;
+      const float value = luminance.At(x, y);
+      const double width = b - a;
+      const int first = std::max(0, static_cast<int>(std::floor(a / bin)) + half_bins);
+      const int last = std::min(num_bins - 1, static_cast<int>(std::floor(b / bin)) + half_bins);
+      for (int k = first; k <= last; ++k) {
+        const double lo = (k - half_bins) * bin;
+        const double w = (std::min(b, lo + bin) - std::max(a, lo)) / width;
+        if (w <= 0.0) continue;
+        if (saturated) {
+          profile.saturated[k] += w;
+        } else {
+          sums[k] += w * value;
+          counts[k] += w;
+        }
       }
-      sums[b] += luminance.At(x, y);
-      ++counts[b];
     }
   }
 
@@ -92,16 +106,16 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
 
   profile.mean.assign(num_bins, 0.0);
   profile.stderr_mean.assign(num_bins, 0.0);
-  profile.count.assign(num_bins, 0);
+  profile.count.assign(num_bins, 0.0);
   for (int i = 0; i < num_bins; ++i) {
     double sum = 0.0;
-    int n = 0;
+    double n = 0.0;
     for (int b = 0; b < options.num_blocks; ++b) {
       sum += profile.block_sum[static_cast<std::size_t>(b) * num_bins + i];
       n += profile.block_count[static_cast<std::size_t>(b) * num_bins + i];
     }
     profile.count[i] = n;
-    if (n == 0) continue;
+    if (n <= 0.0) continue;
     const double mean = sum / n;
     profile.mean[i] = mean;
     // Spread of the block means about the overall mean, weighted by counts:
@@ -110,15 +124,15 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     int blocks = 0;
     for (int b = 0; b < options.num_blocks; ++b) {
       const std::size_t at = static_cast<std::size_t>(b) * num_bins + i;
-      const int nb = profile.block_count[at];
-      if (nb == 0) continue;
+      const double nb = profile.block_count[at];
+      if (nb <= 0.0) continue;
       const double d = profile.block_sum[at] / nb - mean;
       ss += nb * d * d;
       ++blocks;
     }
     profile.stderr_mean[i] =
         blocks > 1 ? std::sqrt(ss / n / (blocks - 1))
-                   : profile.background_noise / std::sqrt(static_cast<double>(n));
+                   : profile.background_noise / std::sqrt(n);
   }
   return profile;
 }

@@ -12,13 +12,16 @@
 
 namespace weavefit {
 
-// Mean radiance per uniform azimuth bin over the usable rows. Bins with no
-// unmasked sample have count 0 and mean 0.
+// Mean radiance per uniform azimuth bin over the usable rows. Each pixel is
+// spread over the bins its footprint covers in azimuth, in proportion to the
+// overlap, so bins narrower than a pixel near the limb are not left empty.
+// Bins with no unmasked sample have count 0 and mean 0.
 struct Profile {
   std::vector<double> azimuth_rad;  // bin centres, ascending
   std::vector<double> mean;         // linear radiance, background included
   std::vector<double> stderr_mean;  // standard error of mean, from row blocks
-  std::vector<int> count;           // unmasked pixels in the bin
+  std::vector<double> count;        // unmasked pixels in the bin (fractional)
+  std::vector<double> saturated;    // saturated (left out) pixels in the bin
   double bin_width_rad = 0.0;
   // Level and noise (robust sigma of one pixel) outside the cylinder.
   double background = 0.0;
@@ -29,7 +32,7 @@ struct Profile {
   // resample over rows: block_sum[block·num_bins + bin].
   int num_blocks = 0;
   std::vector<double> block_sum;
-  std::vector<int> block_count;
+  std::vector<double> block_count;
 
   int NumBins() const { return static_cast<int>(azimuth_rad.size()); }
 };

@@ -207,6 +207,11 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
   return absl::StrFormat(
       "{\n"
       "  \"image\": \"%s\",\n"
+      "  \"acquisition\": {\n"
+      "    \"phaseAngleDeg\": %.6g,\n"
+      "    \"cylinderDiameterMm\": %.6g,\n"
+      "    \"cameraDistanceMm\": %.6g\n"
+      "  },\n"
       "  \"truth\": {\n"
       "    \"model\": \"%s\",\n"
       "    \"wavelengthMm\": %.6g,\n"
@@ -234,7 +239,8 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
       "    \"quantisationBits\": %d, \"samplesPerPixel\": %d, \"seed\": %u\n"
       "  }\n"
       "}\n",
-      image_file, ProfileModelName(s.model), s.wavelength_mm, s.amplitude_mm,
+      image_file, s.phase_angle_deg, s.diameter_mm, s.camera_distance_mm,
+      ProfileModelName(s.model), s.wavelength_mm, s.amplitude_mm,
       t.max_slope, t.peak_spacing_deg, t.mirror_azimuth_deg, t.center_x_px,
       t.radius_px, t.axis_angle_deg, t.px_per_period, b(t.split_resolvable),
       b(t.period_resolvable), s.width_px, s.height_px, ProfileModelName(s.model),
