@@ -190,7 +190,11 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       continue;
     }
     // Sub-pixel limb: where the profile crosses half-way between the
-    // background and the surface level just inside the limb.
+    // background and the surface level just inside the limb. That level is
+    // capped by the pixel next to the first one above threshold: on the
+    // unlit side only a few ambient-lit pixels separate the limb from the
+    // terminator, and a level taken from the lit surface beyond it would
+    // not be crossed within the search window at all.
     auto inside_level = [&](int from, int step) {
       std::vector<double> v;
       for (int k = 2; k <= 6; ++k) {
@@ -199,8 +203,10 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       }
       return Median(v);
     };
-    const double left_half = 0.5 * (background + inside_level(left, +1));
-    const double right_half = 0.5 * (background + inside_level(right, -1));
+    const double left_half =
+        0.5 * (background + std::min(inside_level(left, +1), profile[left + 1]));
+    const double right_half =
+        0.5 * (background + std::min(inside_level(right, -1), profile[right - 1]));
     const double row = 0.5 * (y0 + y1 - 1);
     left_points.push_back(
         {row, region.x + Crossing(profile, std::max(left - 3, 0),

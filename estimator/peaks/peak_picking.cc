@@ -322,10 +322,17 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   const double quantisation = bin / std::sqrt(12.0);
 
   if (split) {
+    // Teeth: every prominent maximum of the lobe, however low.
+    PeakPickingOptions any_height = options;
+    any_height.min_peak_ratio = 0.0;
+    const std::vector<int> teeth =
+        SignificantMaxima(excess, se, left_index, right_index, 0.0, any_height);
     const double left = RefineMaximum(s, left_index);
     const double right = RefineMaximum(s, right_index);
     result.split_resolved = true;
-    result.model = result.valley_ratio < options.sawtooth_valley_ratio
+    // A sawtooth mirrors only at ±arctan m: glints between the peaks (a
+    // comb of teeth) or a filled valley mean a smooth slope distribution.
+    result.model = teeth.size() < 3 && result.valley_ratio < options.sawtooth_valley_ratio
                        ? ProfileModel::kSawtooth
                        : ProfileModel::kSinusoid;
     result.left_peak_rad = azimuth_of(left);
@@ -347,8 +354,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // renders: 1–2 deg per side at 3.7 deg spacing). Count half the spacing
     // as one standard error per side (DESIGN.md §3: count the structure).
     double comb_rad = 0.0;
-    if (maxima.size() >= 3) {
-      std::vector<int> sorted = maxima;
+    if (teeth.size() >= 3) {
+      std::vector<int> sorted = teeth;
       std::sort(sorted.begin(), sorted.end());
       std::vector<double> gaps;
       for (std::size_t k = 1; k < sorted.size(); ++k) gaps.push_back((sorted[k] - sorted[k - 1]) * bin);
@@ -357,7 +364,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
           "the lobe is a comb of glints (%d maxima, median spacing %.2f deg): "
           "too few weave phases in view for a smooth profile; its granularity "
           "is counted in the standard errors",
-          static_cast<int>(maxima.size()), MedianOf(gaps) / kDeg));
+          static_cast<int>(teeth.size()), MedianOf(gaps) / kDeg));
     }
     result.spacing_stderr_rad = std::sqrt(std::pow(Stddev(spacings), 2) +
                                           2.0 * quantisation * quantisation +
