@@ -46,6 +46,30 @@ absl::StatusOr<ImageHeader> ReadPngHeader(const unsigned char* p,
                      static_cast<int>(ReadBigEndian32(p + 20))};
 }
 
+// Walks the PNG chunk list: every chunk must fit in the data and the list
+// must end with IEND. libpng would otherwise report a truncated file on
+// stderr itself and OpenCV may return a partial image.
+absl::Status CheckPngComplete(const unsigned char* p, std::size_t n) {
+  std::size_t at = 8;
+  while (at + 12 <= n) {
+    const std::uint64_t length = ReadBigEndian32(p + at);
+    if (std::memcmp(p + at + 4, "IEND", 4) == 0) return absl::OkStatus();
+    at += 12 + length;
+  }
+  return absl::InvalidArgumentError(
+      "could not decode png data: the file is truncated (no IEND chunk)");
+}
+
+// A JPEG must end with the EOI marker; libjpeg would fill a truncated scan
+// with grey and only warn on stderr.
+absl::Status CheckJpegComplete(const unsigned char* p, std::size_t n) {
+  for (std::size_t k = n; k >= 2 && k + 64 >= n; --k) {
+    if (p[k - 2] == 0xFF && p[k - 1] == 0xD9) return absl::OkStatus();
+  }
+  return absl::InvalidArgumentError(
+      "could not decode jpeg data: the file is truncated (no end-of-image marker)");
+}
+
 absl::StatusOr<ImageHeader> ReadJpegHeader(const unsigned char* p,
                                            std::size_t n) {
   std::size_t i = 2;
@@ -332,6 +356,12 @@ absl::StatusOr<Image> DecodeImage(const std::string& bytes,
         " pixels exceeds the limit of ", options.max_pixels, " pixels"));
   }
   if (header->format == "exr") return DecodeExr(bytes, options, *header);
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  if (header->format == "png") {
+    if (absl::Status s = CheckPngComplete(p, bytes.size()); !s.ok()) return s;
+  } else if (header->format == "jpeg") {
+    if (absl::Status s = CheckJpegComplete(p, bytes.size()); !s.ok()) return s;
+  }
   // libjpeg only warns about a truncated stream and fills the missing rows
   // with grey, so OpenCV would return made-up pixels: require the end-of-image
   // marker after the last start-of-scan (0xFF cannot occur unstuffed in

@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# The test suite: the same set-up as the demo, then every default test
+# through ctest (long runs carry the ctest label "long" and are left out;
+# run them with: ctest --test-dir build -L long).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+"$root/scripts/setup.sh"
+ctest --test-dir "$root/build" --output-on-failure -j "$(nproc)" -LE long

@@ -1,0 +1,208 @@
+// End to end through the real weavefitd and weavefit binaries on an
+// ephemeral loopback port (STYLE.md "Tests").
+#include <google/protobuf/util/json_util.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <thread>
+#include <algorithm>
+
+#include "estimator/io/encode.h"
+#include "grpc/health/v1/health.grpc.pb.h"
+#include "proto/weavefit/v1/convert.h"
+#include "tests/test_support.h"
+
+namespace weavefit::testing {
+namespace {
+
+const std::string kFixtures = FIXTURES_DIR;
+
+grpc::health::v1::HealthCheckResponse::ServingStatus Health(const std::string& address) {
+  auto stub = grpc::health::v1::Health::NewStub(
+      grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  grpc::health::v1::HealthCheckRequest request;
+  grpc::health::v1::HealthCheckResponse response;
+  if (!stub->Check(&context, request, &response).ok()) {
+    return grpc::health::v1::HealthCheckResponse::UNKNOWN;
+  }
+  return response.status();
+}
+
+v1::EstimateReply ParseReply(const std::string& json) {
+  absl::StatusOr<v1::EstimateReply> reply = ReplyFromJson(json);
+  EXPECT_TRUE(reply.ok()) << reply.status() << "\n" << json;
+  return reply.ok() ? *reply : v1::EstimateReply();
+}
+
+// The reply without its per-stage wall times, the one part that differs
+// between two runs.
+std::string WithoutTimings(v1::EstimateReply reply) {
+  reply.clear_timings();
+  return ReplyToJson(reply);
+}
+
+class EndToEnd : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    daemon_ = new Daemon();
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (Health(daemon_->address()) != grpc::health::v1::HealthCheckResponse::SERVING &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  }
+  static void TearDownTestSuite() {
+    delete daemon_;
+    daemon_ = nullptr;
+  }
+
+  static CommandResult Submit(std::vector<std::string> args) {
+    args.insert(args.begin(), {WEAVEFIT_PATH, "submit", "--server", daemon_->address()});
+    return RunCommand(args);
+  }
+  static CommandResult Estimate(std::vector<std::string> args) {
+    args.insert(args.begin(), {WEAVEFIT_PATH, "estimate"});
+    return RunCommand(args);
+  }
+
+  static Daemon* daemon_;
+};
+
+Daemon* EndToEnd::daemon_ = nullptr;
+
+TEST_F(EndToEnd, HealthReportsServing) {
+  EXPECT_EQ(Health(daemon_->address()), grpc::health::v1::HealthCheckResponse::SERVING);
+}
+
+TEST_F(EndToEnd, SubmittedFixturesAgreeWithTheirTruth) {
+  const std::vector<std::string> images = FixtureImages(kFixtures);
+  ASSERT_GE(images.size(), 5u);
+  for (const std::string& image : images) {
+    SCOPED_TRACE(image);
+    const CommandResult run = Submit({image, "--json"});
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const v1::EstimateReply reply = ParseReply(run.out);
+    const google::protobuf::Struct sidecar = ReadSidecar(image);
+    EXPECT_EQ(v1::ProfileModel_Name(reply.model()), SidecarString(sidecar, "truth", "model"));
+    const double truth_spacing = *SidecarNumber(sidecar, "truth", "peakSpacingDeg");
+    if (reply.model() == v1::SMOOTH) {
+      EXPECT_FALSE(reply.peak_spacing_deg().resolved());
+    } else {
+      ASSERT_TRUE(reply.peak_spacing_deg().resolved());
+      // The error stays within what the reply itself claims.
+      EXPECT_LE(std::fabs(reply.peak_spacing_deg().value() - truth_spacing),
+                3.0 * reply.peak_spacing_deg().stderr() + 0.25);
+      EXPECT_NEAR(reply.max_slope().value(), std::tan(reply.peak_spacing_deg().value() * M_PI / 360.0), 1e-9);
+    }
+    EXPECT_NEAR(reply.cylinder().center_x_px(), *SidecarNumber(sidecar, "truth", "centerXPx"), 1.0);
+    EXPECT_NEAR(reply.cylinder().radius_px(), *SidecarNumber(sidecar, "truth", "radiusPx"), 1.5);
+    EXPECT_FALSE(reply.wavelength_mm().resolved());
+    EXPECT_FALSE(reply.amplitude_mm().resolved());
+  }
+}
+
+TEST_F(EndToEnd, EstimateAndSubmitPrintTheSameJson) {
+  for (const std::string& image : FixtureImages(kFixtures)) {
+    SCOPED_TRACE(image);
+    const CommandResult local = Estimate({image, "--json"});
+    const CommandResult remote = Submit({image, "--json"});
+    ASSERT_EQ(local.exit_code, 0) << local.err;
+    ASSERT_EQ(remote.exit_code, 0) << remote.err;
+    EXPECT_EQ(WithoutTimings(ParseReply(local.out)), WithoutTimings(ParseReply(remote.out)));
+    // All fields are printed, defaults included.
+    EXPECT_NE(local.out.find("\"wavelengthMm\":{\"value\":0,\"stderr\":0,\"resolved\":false}"),
+              std::string::npos) << local.out;
+  }
+}
+
+TEST_F(EndToEnd, TableOutputNamesEveryImage) {
+  const std::vector<std::string> images = FixtureImages(kFixtures);
+  const CommandResult run = Submit(images);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const std::string& image : images) EXPECT_NE(run.out.find(image), std::string::npos);
+}
+
+struct BadInput {
+  std::string name;
+  std::string bytes;               // image file contents ("" = a fixture)
+  std::vector<std::string> flags;  // extra flags
+  std::string expect_in_message;
+};
+
+TEST_F(EndToEnd, BadInputGetsAClearErrorAndTheDaemonKeepsServing) {
+  const std::string dir = ::testing::TempDir();
+  const std::string good = FixtureImages(kFixtures).front();
+  const std::string png = ReadFileOrDie(kFixtures + "/gauze_sawtooth_p10.png");
+  std::mt19937 rng(7);
+  std::string random(4096, '\0');
+  for (char& c : random) c = static_cast<char>(rng());
+  const std::vector<BadInput> cases = {
+      {"empty.png", "", {"--phase-angle", "10"}, "empty"},
+      {"random.png", random, {"--phase-angle", "10"}, "unrecognised image format"},
+      {"truncated.png", png.substr(0, png.size() / 2), {"--phase-angle", "10"}, "decode"},
+      {"phase180.png", png, {"--phase-angle", "180"}, "phase_angle_deg"},
+      {"phase-200.png", png, {"--phase-angle=-200"}, "phase_angle_deg"},
+      {"negative_diameter.png", png, {"--phase-angle", "10", "--diameter-mm=-5"}, "cylinder_diameter_mm"},
+      {"no_cylinder.png", "", {"--phase-angle", "10"}, "no cylinder"},
+  };
+  for (const BadInput& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::string path = dir + c.name;
+    std::string bytes = c.bytes;
+    if (c.name == "no_cylinder.png") {
+      // A flat grey frame: decodable, but nothing to measure.
+      Image flat;
+      flat.width = 200;
+      flat.height = 150;
+      flat.channels = 1;
+      flat.pixels.assign(200 * 150, 0.2f);
+      bytes = *EncodeImage(flat, EncodeFormat::kPng16);
+    }
+    WriteFileOrDie(path, bytes);
+    for (bool remote : {false, true}) {
+      SCOPED_TRACE(remote ? "submit" : "estimate");
+      std::vector<std::string> args = {path};
+      args.insert(args.end(), c.flags.begin(), c.flags.end());
+      const CommandResult plain = remote ? Submit(args) : Estimate(args);
+      EXPECT_NE(plain.exit_code, 0);
+      EXPECT_NE(plain.err.find(c.expect_in_message), std::string::npos) << plain.err;
+      EXPECT_EQ(std::count(plain.err.begin(), plain.err.end(), '\n'), 1) << plain.err;
+      args.push_back("--json");
+      const CommandResult json = remote ? Submit(args) : Estimate(args);
+      EXPECT_EQ(json.exit_code, plain.exit_code);
+      google::protobuf::Struct error;
+      ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json.out, &error).ok()) << json.out;
+      EXPECT_EQ(SidecarString(error, "error", "code"), "INVALID_ARGUMENT") << json.out;
+      EXPECT_NE(SidecarString(error, "error", "message").find(c.expect_in_message), std::string::npos);
+    }
+  }
+  // Nothing above hurt the daemon.
+  EXPECT_TRUE(daemon_->running());
+  EXPECT_EQ(Health(daemon_->address()), grpc::health::v1::HealthCheckResponse::SERVING);
+  const CommandResult after = Submit({good, "--json"});
+  EXPECT_EQ(after.exit_code, 0) << after.err;
+}
+
+TEST(DaemonLifecycle, SigtermStopsCleanly) {
+  Daemon daemon;
+  ASSERT_TRUE(daemon.running());
+  EXPECT_EQ(daemon.Stop(), 0);
+}
+
+TEST(DaemonLifecycle, UnreachableServerIsUnavailable) {
+  Daemon daemon;
+  const std::string address = daemon.address();
+  ASSERT_EQ(daemon.Stop(), 0);
+  const CommandResult run = RunCommand({WEAVEFIT_PATH, "submit", "--server", address, "--timeout-s", "5",
+                                        kFixtures + "/smooth_p10.png", "--json"});
+  EXPECT_EQ(run.exit_code, 14);  // UNAVAILABLE
+  EXPECT_NE(run.out.find("UNAVAILABLE"), std::string::npos) << run.out;
+}
+
+}  // namespace
+}  // namespace weavefit::testing

@@ -1,0 +1,174 @@
+#include "tests/test_support.h"
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+extern char** environ;
+
+namespace weavefit::testing {
+namespace {
+
+std::string MakeTempDir() {
+  std::string pattern = ::testing::TempDir() + "weavefit_XXXXXX";
+  char* made = mkdtemp(pattern.data());
+  if (made == nullptr) ADD_FAILURE() << "mkdtemp failed";
+  return pattern;
+}
+
+}  // namespace
+
+CommandResult RunCommand(const std::vector<std::string>& argv) {
+  const std::string dir = MakeTempDir();
+  const std::string out_path = dir + "/out";
+  const std::string err_path = dir + "/err";
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  CommandResult result;
+  if (posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ) != 0) {
+    ADD_FAILURE() << "cannot start " << argv[0];
+    return result;
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  result.out = ReadFileOrDie(out_path);
+  result.err = ReadFileOrDie(err_path);
+  std::remove(out_path.c_str());
+  std::remove(err_path.c_str());
+  rmdir(dir.c_str());
+  return result;
+}
+
+std::string ReadFileOrDie(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  EXPECT_TRUE(in.good()) << "cannot read " << path;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+void WriteFileOrDie(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  ASSERT_TRUE(out.good()) << "cannot write " << path;
+}
+
+std::vector<std::string> FixtureImages(const std::string& dir) {
+  std::vector<std::string> images;
+  if (DIR* d = opendir(dir.c_str())) {
+    while (dirent* entry = readdir(d)) {
+      const std::string name = entry->d_name;
+      const std::size_t dot = name.find_last_of('.');
+      if (dot == std::string::npos) continue;
+      const std::string ext = name.substr(dot + 1);
+      if (ext == "png" || ext == "tiff" || ext == "exr" || ext == "jpg") {
+        images.push_back(dir + "/" + name);
+      }
+    }
+    closedir(d);
+  }
+  std::sort(images.begin(), images.end());
+  return images;
+}
+
+google::protobuf::Struct ReadSidecar(const std::string& image) {
+  const std::string path = image.substr(0, image.find_last_of('.')) + ".json";
+  google::protobuf::Struct sidecar;
+  const auto status = google::protobuf::util::JsonStringToMessage(ReadFileOrDie(path), &sidecar);
+  EXPECT_TRUE(status.ok()) << path << ": " << status.ToString();
+  return sidecar;
+}
+
+std::optional<double> SidecarNumber(const google::protobuf::Struct& s,
+                                    const std::string& object,
+                                    const std::string& field) {
+  auto o = s.fields().find(object);
+  if (o == s.fields().end()) return std::nullopt;
+  auto f = o->second.struct_value().fields().find(field);
+  if (f == o->second.struct_value().fields().end()) return std::nullopt;
+  return f->second.number_value();
+}
+
+std::string SidecarString(const google::protobuf::Struct& s,
+                          const std::string& object, const std::string& field) {
+  auto o = s.fields().find(object);
+  if (o == s.fields().end()) return "";
+  auto f = o->second.struct_value().fields().find(field);
+  if (f == o->second.struct_value().fields().end()) return "";
+  return f->second.string_value();
+}
+
+Daemon::Daemon(const std::vector<std::string>& extra_flags) {
+  dir_ = MakeTempDir();
+  const std::string port_file = dir_ + "/port";
+  std::vector<std::string> argv = {WEAVEFITD_PATH, "--listen", "127.0.0.1:0",
+                                   "--port-file", port_file, "--workers", "2"};
+  argv.insert(argv.end(), extra_flags.begin(), extra_flags.end());
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  const std::string log = dir_ + "/weavefitd.log";
+  posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ) != 0) {
+    ADD_FAILURE() << "cannot start " << WEAVEFITD_PATH;
+    pid_ = -1;
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (pid_ > 0 && std::chrono::steady_clock::now() < deadline) {
+    std::ifstream in(port_file);
+    if (in >> port_) break;
+    if (!running()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (port_ == 0) ADD_FAILURE() << "weavefitd did not report a port";
+}
+
+bool Daemon::running() const {
+  if (pid_ <= 0) return false;
+  int status = 0;
+  return waitpid(pid_, &status, WNOHANG) == 0;
+}
+
+int Daemon::Stop() {
+  if (pid_ <= 0) return -1;
+  kill(pid_, SIGTERM);
+  int status = 0;
+  const pid_t waited = waitpid(pid_, &status, 0);
+  pid_ = -1;
+  if (waited <= 0 || !WIFEXITED(status)) return -1;
+  return WEXITSTATUS(status);
+}
+
+Daemon::~Daemon() {
+  if (pid_ > 0) {
+    kill(pid_, SIGKILL);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+  }
+}
+
+}  // namespace weavefit::testing

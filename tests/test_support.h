@@ -1,0 +1,58 @@
+// Shared support for tests that span modules: running the real binaries,
+// reading fixtures and their truth sidecars.
+#ifndef WEAVEFIT_TESTS_TEST_SUPPORT_H_
+#define WEAVEFIT_TESTS_TEST_SUPPORT_H_
+
+#include <google/protobuf/struct.pb.h>
+#include <sys/types.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace weavefit::testing {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+// Runs argv[0] with arguments, no shell, capturing stdout and stderr.
+CommandResult RunCommand(const std::vector<std::string>& argv);
+
+std::string ReadFileOrDie(const std::string& path);
+void WriteFileOrDie(const std::string& path, const std::string& bytes);
+
+// The fixture images (png, tiff, exr, jpg) in `dir`, sorted.
+std::vector<std::string> FixtureImages(const std::string& dir);
+// The parsed sidecar of an image (stem + ".json").
+google::protobuf::Struct ReadSidecar(const std::string& image);
+// A number at sidecar[object][field]; nullopt when absent.
+std::optional<double> SidecarNumber(const google::protobuf::Struct& s,
+                                    const std::string& object,
+                                    const std::string& field);
+std::string SidecarString(const google::protobuf::Struct& s,
+                          const std::string& object, const std::string& field);
+
+// A weavefitd child process on an ephemeral loopback port.
+class Daemon {
+ public:
+  // Starts the daemon and waits for its port file; extra flags appended.
+  explicit Daemon(const std::vector<std::string>& extra_flags = {});
+  ~Daemon();
+  int port() const { return port_; }
+  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  bool running() const;
+  // Sends SIGTERM and waits; returns the exit status (or -1).
+  int Stop();
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = 0;
+  std::string dir_;
+};
+
+}  // namespace weavefit::testing
+
+#endif  // WEAVEFIT_TESTS_TEST_SUPPORT_H_
