@@ -148,6 +148,58 @@ double Stddev(const std::vector<double>& v) {
   return std::sqrt(ss / (v.size() - 1));
 }
 
+// Distance in facet tilt between the outermost maxima of the sinusoid's
+// specular radiance (DESIGN.md §3) blurred by a Gaussian of sigma_rad, at
+// mirror azimuth mirror_rad: what peak picking on a profile smoothed by
+// sigma_rad would read for max slope m.
+double SmoothedSinusoidSpacing(double max_slope, double sigma_rad,
+                               double mirror_rad) {
+  RadianceParams<double> p;
+  p.model = ProfileModel::kSinusoid;
+  p.max_slope = max_slope;
+  p.mirror_rad = mirror_rad;
+  p.blur_rad = sigma_rad;
+  const double reach = std::atan(max_slope) + 5.0 * sigma_rad;
+  const double step = std::min(sigma_rad, std::atan(max_slope)) / 20.0;
+  const int n = static_cast<int>(std::ceil(2.0 * reach / step)) + 1;
+  std::vector<double> f(n);
+  for (int i = 0; i < n; ++i) {
+    const double beta = -reach + i * step;
+    f[i] = SpecularRadiance(p, mirror_rad - beta);
+  }
+  // The highest maximum on each side of β = 0.
+  const int mid = n / 2;
+  int left = 0;
+  for (int i = 1; i <= mid; ++i) if (f[i] > f[left]) left = i;
+  int right = n - 1;
+  for (int i = n - 2; i >= mid; --i) if (f[i] > f[right]) right = i;
+  return (right - left) * step;
+}
+
+// The max slope whose smoothed sinusoid lobe shows `spacing_rad` between its
+// maxima (bisection; the smoothed spacing grows with m). Returns the spacing
+// itself as a slope when the smoothing merges the peaks of every candidate.
+double InvertSmoothedSinusoidSpacing(double spacing_rad, double sigma_rad,
+                                     double mirror_rad) {
+  double lo = std::tan(0.5 * spacing_rad);  // smoothing only pulls peaks in
+  double hi = std::tan(std::min(0.5 * spacing_rad + 4.0 * sigma_rad, 1.4));
+  if (SmoothedSinusoidSpacing(hi, sigma_rad, mirror_rad) < spacing_rad) return hi;
+  for (int it = 0; it < 40; ++it) {
+    const double m = 0.5 * (lo + hi);
+    (SmoothedSinusoidSpacing(m, sigma_rad, mirror_rad) < spacing_rad ? lo : hi) = m;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Position (bin index) of the highest local maximum of s in [a, b], refined.
+double HighestMaximum(const std::vector<double>& s, int a, int b) {
+  int best = -1;
+  for (int i = std::max(a, 1); i <= std::min(b, static_cast<int>(s.size()) - 2); ++i) {
+    if (s[i] >= s[i - 1] && s[i] > s[i + 1] && (best < 0 || s[i] > s[best])) best = i;
+  }
+  return best < 0 ? -1.0 : RefineMaximum(s, best);
+}
+
 }  // namespace
 
 absl::Status PeakPickingOptions::Validate() const {
@@ -349,22 +401,79 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       spacings.push_back(spacing_of(l, rr));
       mirrors.push_back(0.5 * (l + rr));
     }
-    // Comb granularity: with few weave phases in view, the outermost glint
-    // may stand up to about one tooth spacing inside the caustic (seen on
-    // renders: 1–2 deg per side at 3.7 deg spacing). Count half the spacing
-    // as one standard error per side (DESIGN.md §3: count the structure).
     double comb_rad = 0.0;
     if (teeth.size() >= 3) {
+      // A comb of glints: one photograph samples only the weave phases of
+      // the threads in view (DESIGN.md §3). Smooth over about half a thread
+      // period (the median tooth spacing), read the two maxima there, and
+      // undo the inward pull of that smoothing with the sinusoid's own lobe
+      // shape (SmoothedSinusoidSpacing). What smoothing cannot restore is
+      // counted as half a tooth spacing per side: with few threads in view
+      // one side's caustic glints can be missing altogether (seen on coarse
+      // gauze renders: errors up to a tooth spacing, ~4 deg).
       std::vector<int> sorted = teeth;
       std::sort(sorted.begin(), sorted.end());
       std::vector<double> gaps;
       for (std::size_t k = 1; k < sorted.size(); ++k) gaps.push_back((sorted[k] - sorted[k - 1]) * bin);
-      comb_rad = 0.5 * MedianOf(gaps);
-      result.warnings.push_back(absl::StrFormat(
-          "the lobe is a comb of glints (%d maxima, median spacing %.2f deg): "
-          "too few weave phases in view for a smooth profile; its granularity "
-          "is counted in the standard errors",
-          static_cast<int>(teeth.size()), MedianOf(gaps) / kDeg));
+      const double gap = MedianOf(gaps);
+      const double sigma_h = std::clamp(gap, 0.5 * kDeg, 3.0 * kDeg);
+      const double mid = 0.5 * (left_index + right_index);
+      auto heavy_peaks = [&](const std::vector<double>& profile_values, double* l, double* r) {
+        const std::vector<double> h = Smooth(profile_values, sigma_h / bin);
+        *l = HighestMaximum(h, lobe_lo, static_cast<int>(std::floor(mid)));
+        *r = HighestMaximum(h, static_cast<int>(std::ceil(mid)), lobe_hi);
+        return *l >= 0 && *r >= 0 && *r - *l >= 3;
+      };
+      double hl = 0;
+      double hr = 0;
+      if (heavy_peaks(filled, &hl, &hr)) {
+        const double mirror = 0.5 * (azimuth_of(hl) + azimuth_of(hr));
+        const double measured = spacing_of(azimuth_of(hl), azimuth_of(hr));
+        const double m = InvertSmoothedSinusoidSpacing(measured, sigma_h, mirror);
+        result.spacing_rad = PeakSpacingRad(m);
+        result.mirror_rad = mirror;
+        result.left_peak_rad = mirror - 0.5 * result.spacing_rad;
+        result.right_peak_rad = mirror + 0.5 * result.spacing_rad;
+        // Gain of the correction, for propagating the measured spread.
+        const double delta = 0.1 * kDeg;
+        const double gain_h =
+            (PeakSpacingRad(InvertSmoothedSinusoidSpacing(measured + delta, sigma_h, mirror)) -
+             result.spacing_rad) / delta;
+        spacings.clear();
+        mirrors.clear();
+        for (int r = 0; r < options.bootstrap_samples; ++r) {
+          std::vector<double> t = MeanFromBlocks(profile, [&] {
+            std::vector<int> w(profile.num_blocks, 0);
+            for (int k = 0; k < profile.num_blocks; ++k) ++w[pick(rng)];
+            return w;
+          }());
+          for (int i = 0; i < n; ++i) {
+            if (filled[i] != raw[i]) t[i] = filled[i];
+          }
+          double bl = 0;
+          double br = 0;
+          if (!heavy_peaks(t, &bl, &br)) continue;
+          spacings.push_back(gain_h * spacing_of(azimuth_of(bl), azimuth_of(br)));
+          mirrors.push_back(0.5 * (azimuth_of(bl) + azimuth_of(br)));
+        }
+        comb_rad = 0.5 * gap;
+        result.smoothing_rad = sigma_h;
+        result.warnings.push_back(absl::StrFormat(
+            "the lobe is a comb of glints (%d maxima, median spacing %.2f deg): "
+            "peaks read after smoothing by %.2f deg and corrected for that "
+            "smoothing with the sinusoid's lobe shape; the comb's residue is "
+            "counted in the standard errors",
+            static_cast<int>(teeth.size()), gap / kDeg, sigma_h / kDeg));
+      } else {
+        // The smoothed peaks merge: keep the outermost teeth, whose offset
+        // from the caustic can reach a tooth spacing.
+        comb_rad = 0.75 * gap;
+        result.warnings.push_back(absl::StrFormat(
+            "the lobe is a comb of glints (%d maxima, median spacing %.2f deg) "
+            "too narrow to smooth: the outermost glints were taken as the "
+            "peaks, half a tooth spacing counted per side in the errors",
+            static_cast<int>(teeth.size()), gap / kDeg));
+      }
     }
     result.spacing_stderr_rad = std::sqrt(std::pow(Stddev(spacings), 2) +
                                           2.0 * quantisation * quantisation +
