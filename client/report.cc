@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 
 namespace weavefit {
 namespace {
@@ -22,7 +23,8 @@ std::string FormatTable(const std::vector<ReportRow>& rows) {
   std::string out = absl::StrFormat("%-*s  %-9s %-17s %-19s %-16s %-12s %s\n", w,
                                     "image", "model", "spacing (deg)", "max slope",
                                     "mirror (deg)", "wavelength", "truth spacing");
-  std::string notes;
+  // Each distinct warning once, with the images it applies to.
+  std::vector<std::pair<std::string, std::vector<std::string>>> notes;
   for (const ReportRow& row : rows) {
     if (!row.reply) {
       absl::StrAppendFormat(&out, "%-*s  ERROR %s\n", w, row.image, row.error);
@@ -37,10 +39,23 @@ std::string FormatTable(const std::vector<ReportRow>& rows) {
         Cell(r.max_slope(), "%.4f ± %.4f"), Cell(r.specular_azimuth_deg(), "%.2f ± %.2f"),
         Cell(r.wavelength_mm(), "%.3f ± %.3f"), truth);
     for (const std::string& warning : r.warnings()) {
-      absl::StrAppend(&notes, "  ", row.image, ": ", warning, "\n");
+      auto it = std::find_if(notes.begin(), notes.end(),
+                             [&](const auto& n) { return n.first == warning; });
+      if (it == notes.end()) {
+        notes.push_back({warning, {row.image}});
+      } else {
+        it->second.push_back(row.image);
+      }
     }
   }
-  if (!notes.empty()) absl::StrAppend(&out, "\nwarnings:\n", notes);
+  if (!notes.empty()) absl::StrAppend(&out, "\nwarnings:\n");
+  for (const auto& [warning, images] : notes) {
+    absl::StrAppend(&out, "- ", warning, "\n  (",
+                    images.size() == rows.size() && rows.size() > 1
+                        ? std::string("all images")
+                        : absl::StrJoin(images, ", "),
+                    ")\n");
+  }
   return out;
 }
 

@@ -103,6 +103,28 @@ TEST(CylinderDetectionTest, LargerImageNearTheTerminator) {
   EXPECT_NEAR(g->axis_angle_rad / kDeg, 0.0, 0.1);
 }
 
+// DESIGN.md §3: "The cylinder body may be darker or brighter than the
+// background (ambient light, black cloth) ... detect limbs by edges, not by
+// brightness."
+TEST(CylinderDetectionTest, BodyDarkerThanTheBackground) {
+  GTEST_SKIP() << "Known library limitation: DetectCylinder thresholds band "
+                  "profiles ABOVE the background, so a body darker than the "
+                  "background is located by its lit lobe only. On this scene "
+                  "it returns OK with center ≈ 271.5 px (truth 190.3) and "
+                  "radius ≈ 71.9 px (truth 152), limb_rms ≈ 9.3 px, instead "
+                  "of the truth or an error. Needs edge-based limb detection "
+                  "(a design change, not a small fix).";
+  RenderScene scene = SmallScene();
+  scene.ambient = 0.002;
+  scene.background = 0.05;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g =
+      DetectCylinder(rendered.image, CylinderDetectionOptions());
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_NEAR(g->center_x_px, 190.3, 0.5);
+  EXPECT_NEAR(g->radius_px, 152.0, 1.0);
+}
+
 TEST(CylinderDetectionTest, UsableRowsStopAtTheCylinderEnds) {
   RenderScene scene = SmallScene();
   scene.top_row_px = 60;

@@ -60,16 +60,6 @@ absl::Status CheckPngComplete(const unsigned char* p, std::size_t n) {
       "could not decode png data: the file is truncated (no IEND chunk)");
 }
 
-// A JPEG must end with the EOI marker; libjpeg would fill a truncated scan
-// with grey and only warn on stderr.
-absl::Status CheckJpegComplete(const unsigned char* p, std::size_t n) {
-  for (std::size_t k = n; k >= 2 && k + 64 >= n; --k) {
-    if (p[k - 2] == 0xFF && p[k - 1] == 0xD9) return absl::OkStatus();
-  }
-  return absl::InvalidArgumentError(
-      "could not decode jpeg data: the file is truncated (no end-of-image marker)");
-}
-
 absl::StatusOr<ImageHeader> ReadJpegHeader(const unsigned char* p,
                                            std::size_t n) {
   std::size_t i = 2;
@@ -359,8 +349,6 @@ absl::StatusOr<Image> DecodeImage(const std::string& bytes,
   const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
   if (header->format == "png") {
     if (absl::Status s = CheckPngComplete(p, bytes.size()); !s.ok()) return s;
-  } else if (header->format == "jpeg") {
-    if (absl::Status s = CheckJpegComplete(p, bytes.size()); !s.ok()) return s;
   }
   // libjpeg only warns about a truncated stream and fills the missing rows
   // with grey, so OpenCV would return made-up pixels: require the end-of-image

@@ -35,7 +35,10 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   const double limb = std::min(projection.VisibleLimbRad(),
                                options.max_abs_azimuth_deg * M_PI / 180.0);
   const double bin = options.bin_width_deg * M_PI / 180.0;
-  const int half_bins = static_cast<int>(std::floor(limb / bin));
+  // The small tolerance keeps a limit that is a whole number of bins (86° /
+  // 0.25°) from losing its last bin to the rounding of the degree-to-radian
+  // conversions.
+  const int half_bins = static_cast<int>(std::floor(limb / bin + 1e-9));
   const int num_bins = 2 * half_bins;
 
   Profile profile;
@@ -68,6 +71,11 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
       }
     }
     for (int x = x0; x <= x1; ++x) {
+      // Pixels centred beyond the limit (limb pixels, mostly background)
+      // stay out, as options.max_abs_azimuth_deg promises; spreading their
+      // footprint would carry the background into the outermost bins.
+      const double centre = AzimuthFromOffset(geometry.NormalisedOffset(x, y), projection);
+      if (!(std::fabs(centre) < limb)) continue;
       // The pixel's footprint in azimuth, clipped to the visible range.
       double a = AzimuthFromOffset(std::clamp(geometry.NormalisedOffset(x - 0.5, y), -1.0, 1.0), projection);
       double b = AzimuthFromOffset(std::clamp(geometry.NormalisedOffset(x + 0.5, y), -1.0, 1.0), projection);

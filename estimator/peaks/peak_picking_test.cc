@@ -1,0 +1,285 @@
+// Unit tests of peaks/peak_picking: on profiles of rendered photographs with
+// known truth (render → Luminance → DetectCylinder → ExtractProfile →
+// PickPeaks) and on analytic profiles built from optics/radiance.
+#include "estimator/peaks/peak_picking.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "absl/status/status.h"
+#include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/io/image.h"
+#include "estimator/optics/radiance.h"
+#include "estimator/profile/profile_extraction.h"
+#include "estimator/render/render.h"
+
+namespace weavefit {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// 400×300 at 2×8 samples per pixel (≈ 0.2 s), phase 10°, m = 0.24 unless
+// changed; λ = 1 mm gives ~7 px per period and ~85 threads in view.
+RenderScene Scene(ProfileModel model, double max_slope, std::uint32_t seed) {
+  RenderScene scene;
+  scene.width_px = 400;
+  scene.height_px = 300;
+  scene.samples_per_pixel = 2;
+  scene.model = model;
+  scene.wavelength_mm = 1.0;
+  scene.amplitude_mm = model == ProfileModel::kSawtooth
+                           ? max_slope * scene.wavelength_mm / 4.0
+                           : max_slope * scene.wavelength_mm / (2.0 * M_PI);
+  scene.phase_angle_deg = 10.0;
+  scene.seed = seed;
+  return scene;
+}
+
+struct Analysis {
+  RenderTruth truth;
+  Profile profile;
+  PeakPickingResult peaks;
+};
+
+// The whole chain up to the peaks; fails the test on any error.
+Analysis Analyse(const RenderScene& scene,
+                 const PeakPickingOptions& options = PeakPickingOptions()) {
+  Analysis out;
+  absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  EXPECT_TRUE(rendered.ok()) << rendered.status();
+  if (!rendered.ok()) return out;
+  out.truth = rendered->truth;
+  const Image luminance = Luminance(rendered->image);
+  absl::StatusOr<CylinderGeometry> geometry =
+      DetectCylinder(luminance, CylinderDetectionOptions());
+  EXPECT_TRUE(geometry.ok()) << geometry.status();
+  if (!geometry.ok()) return out;
+  const Projection projection{scene.diameter_mm / 2.0, scene.camera_distance_mm};
+  absl::StatusOr<Profile> profile =
+      ExtractProfile(luminance, *geometry, projection, ProfileOptions());
+  EXPECT_TRUE(profile.ok()) << profile.status();
+  if (!profile.ok()) return out;
+  out.profile = *profile;
+  absl::StatusOr<PeakPickingResult> peaks =
+      PickPeaks(*profile, scene.phase_angle_deg * kDeg, projection, options);
+  EXPECT_TRUE(peaks.ok()) << peaks.status();
+  if (peaks.ok()) out.peaks = *peaks;
+  return out;
+}
+
+void ExpectSplit(const Analysis& a, double tolerance_deg) {
+  const PeakPickingResult& p = a.peaks;
+  EXPECT_TRUE(p.split_resolved);
+  EXPECT_NEAR(p.spacing_rad / kDeg, a.truth.peak_spacing_deg, tolerance_deg);
+  EXPECT_NEAR(p.max_slope, std::tan(0.5 * p.spacing_rad), 1e-12);
+  EXPECT_LT(p.left_peak_rad, p.right_peak_rad);
+  EXPECT_NEAR(p.mirror_rad, 0.5 * (p.left_peak_rad + p.right_peak_rad), 1e-12);
+  EXPECT_NEAR(p.mirror_rad / kDeg, a.truth.mirror_azimuth_deg, 0.5);
+  // Standard errors from the row-block bootstrap (and the comb and bin
+  // granularity): positive, below a degree, and consistent with the
+  // max-slope error through m = tan(spacing/2).
+  EXPECT_GT(p.spacing_stderr_rad, 0.0);
+  EXPECT_LT(p.spacing_stderr_rad / kDeg, 1.0);
+  EXPECT_GT(p.mirror_stderr_rad, 0.0);
+  EXPECT_LT(p.mirror_stderr_rad / kDeg, 1.0);
+  const double sec = 1.0 / std::cos(0.5 * p.spacing_rad);
+  EXPECT_NEAR(p.max_slope_stderr, 0.5 * sec * sec * p.spacing_stderr_rad, 1e-12);
+  EXPECT_GT(p.dip_sigmas, 5.0);
+}
+
+TEST(PeakPickingTest, SinusoidSplitAtPhaseTen) {
+  const Analysis a = Analyse(Scene(ProfileModel::kSinusoid, 0.24, 3));
+  ASSERT_NEAR(a.truth.peak_spacing_deg, 2.0 * std::atan(0.24) / kDeg, 1e-9);  // 26.99°
+  EXPECT_EQ(a.peaks.model, ProfileModel::kSinusoid) << ProfileModelName(a.peaks.model);
+  ExpectSplit(a, 1.0);
+  // Peak picking is biased low (blur pulls the caustics inward), never high
+  // by more than the granularity of the comb.
+  EXPECT_LT(a.peaks.spacing_rad / kDeg, a.truth.peak_spacing_deg + 0.5);
+}
+
+TEST(PeakPickingTest, SinusoidOtherWeaveAndLightOnTheLeft) {
+  RenderScene scene = Scene(ProfileModel::kSinusoid, 0.24, 2);
+  scene.phase_angle_deg = -20.0;
+  const Analysis a = Analyse(scene);
+  EXPECT_EQ(a.peaks.model, ProfileModel::kSinusoid) << ProfileModelName(a.peaks.model);
+  ExpectSplit(a, 1.0);
+  EXPECT_LT(a.peaks.mirror_rad, 0.0);
+}
+
+TEST(PeakPickingTest, SawtoothSplit) {
+  // The paper's coarse gauze read as a sawtooth: m = 0.15, 17.06°.
+  const Analysis a = Analyse(Scene(ProfileModel::kSawtooth, 0.15, 1));
+  ASSERT_NEAR(a.truth.peak_spacing_deg, 17.0615, 1e-3);
+  EXPECT_EQ(a.peaks.model, ProfileModel::kSawtooth) << ProfileModelName(a.peaks.model);
+  ExpectSplit(a, 1.0);
+  // Nothing mirrors between the two facet tilts.
+  EXPECT_LT(a.peaks.valley_ratio, 0.1);
+}
+
+TEST(PeakPickingTest, SmoothSceneHasASinglePeak) {
+  const Analysis a = Analyse(Scene(ProfileModel::kSmooth, 0.0, 1));
+  const PeakPickingResult& p = a.peaks;
+  EXPECT_EQ(p.model, ProfileModel::kSmooth) << ProfileModelName(p.model);
+  EXPECT_FALSE(p.split_resolved);
+  EXPECT_EQ(p.spacing_rad, 0.0);
+  EXPECT_EQ(p.dip_sigmas, 0.0);
+  EXPECT_EQ(p.left_peak_rad, p.right_peak_rad);
+  EXPECT_EQ(p.mirror_rad, p.left_peak_rad);
+  // The mirror point α/2 = 5°; the brightest column sits a little toward the
+  // nearer limb (DESIGN.md §3).
+  EXPECT_NEAR(p.mirror_rad / kDeg, 5.0, 0.25);
+  EXPECT_GT(p.mirror_stderr_rad, 0.0);
+  EXPECT_LT(p.mirror_stderr_rad / kDeg, 0.5);
+  // The lobe is the source blur (σ_β = 0.3°, FWHM 0.71°) plus smoothing.
+  EXPECT_GT(p.single_peak_fwhm_rad / kDeg, 0.5);
+  EXPECT_LT(p.single_peak_fwhm_rad / kDeg, 2.5);
+  ASSERT_FALSE(p.warnings.empty());
+  EXPECT_NE(p.warnings.back().find("not resolved"), std::string::npos);
+}
+
+TEST(PeakPickingTest, BootstrapIsSeededAndCanBeTurnedOff) {
+  // One render, three pickings of its profile.
+  const RenderScene scene = Scene(ProfileModel::kSawtooth, 0.15, 1);
+  const Analysis a = Analyse(scene);
+  const Projection projection;
+  PeakPickingOptions options;
+  absl::StatusOr<PeakPickingResult> again =
+      PickPeaks(a.profile, scene.phase_angle_deg * kDeg, projection, options);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->spacing_rad, a.peaks.spacing_rad);
+  EXPECT_EQ(again->spacing_stderr_rad, a.peaks.spacing_stderr_rad);
+
+  options.bootstrap_samples = 0;
+  absl::StatusOr<PeakPickingResult> plain =
+      PickPeaks(a.profile, scene.phase_angle_deg * kDeg, projection, options);
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  // Same peaks; the error is then the bin quantisation alone, √2·bin/√12
+  // (no comb on a sawtooth).
+  EXPECT_EQ(plain->spacing_rad, a.peaks.spacing_rad);
+  const double bin = a.profile.bin_width_rad;
+  EXPECT_NEAR(plain->spacing_stderr_rad, std::sqrt(2.0) * bin / std::sqrt(12.0), 1e-12);
+  EXPECT_GE(a.peaks.spacing_stderr_rad, plain->spacing_stderr_rad);
+}
+
+// A profile of num_blocks identical row blocks holding the analytic
+// radiance (no comb, no noise) on `bins` bins of width bin_deg.
+Profile AnalyticProfile(const RadianceParams<double>& params, double bin_deg) {
+  Profile p;
+  const double bin = bin_deg * kDeg;
+  const int half = static_cast<int>(std::floor(86.0 / bin_deg + 1e-9));
+  p.bin_width_rad = bin;
+  p.num_blocks = 8;
+  p.background = 0.01;
+  p.background_noise = 0.002;
+  const double per_block = 50.0;  // pixels per bin and block
+  for (int i = 0; i < 2 * half; ++i) {
+    const double phi = (i - half + 0.5) * bin;
+    const double value = Radiance(params, phi) + p.background;
+    p.azimuth_rad.push_back(phi);
+    p.mean.push_back(value);
+    p.stderr_mean.push_back(p.background_noise / std::sqrt(per_block * p.num_blocks));
+    p.count.push_back(per_block * p.num_blocks);
+    p.saturated.push_back(0.0);
+  }
+  const int n = p.NumBins();
+  p.block_sum.resize(static_cast<std::size_t>(n) * p.num_blocks);
+  p.block_count.resize(p.block_sum.size());
+  for (int b = 0; b < p.num_blocks; ++b) {
+    for (int i = 0; i < n; ++i) {
+      p.block_sum[static_cast<std::size_t>(b) * n + i] = per_block * p.mean[i];
+      p.block_count[static_cast<std::size_t>(b) * n + i] = per_block;
+    }
+  }
+  return p;
+}
+
+TEST(PeakPickingTest, AnalyticSinusoidProfile) {
+  // L(φ) of optics/radiance for m = 0.24 at α = 10°, blur σ = 0.2°: the
+  // caustic maxima sit 0.77σ inside ±arctan m, and the light smoothing pulls
+  // them a little further.
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSinusoid;
+  params.max_slope = 0.24;
+  params.mirror_rad = 5.0 * kDeg;
+  params.blur_rad = 0.2 * kDeg;
+  params.scale = 0.01;
+  params.phase_angle_rad = 10.0 * kDeg;
+  const Profile profile = AnalyticProfile(params, 0.25);
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(profile, 10.0 * kDeg, Projection(), PeakPickingOptions());
+  ASSERT_TRUE(p.ok()) << p.status();
+  const double truth = 2.0 * std::atan(0.24) / kDeg;
+  EXPECT_TRUE(p->split_resolved);
+  EXPECT_EQ(p->model, ProfileModel::kSinusoid);
+  EXPECT_LT(p->spacing_rad / kDeg, truth);
+  EXPECT_GT(p->spacing_rad / kDeg, truth - 1.0);
+  EXPECT_NEAR(p->mirror_rad / kDeg, 5.0, 0.1);
+}
+
+TEST(PeakPickingTest, AnalyticSawtoothAndSmoothProfiles) {
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSawtooth;
+  params.max_slope = 0.15;
+  params.mirror_rad = -8.0 * kDeg;
+  params.blur_rad = 0.3 * kDeg;
+  params.scale = 0.01;
+  params.phase_angle_rad = -16.0 * kDeg;
+  absl::StatusOr<PeakPickingResult> saw = PickPeaks(
+      AnalyticProfile(params, 0.25), -16.0 * kDeg, Projection(), PeakPickingOptions());
+  ASSERT_TRUE(saw.ok()) << saw.status();
+  EXPECT_EQ(saw->model, ProfileModel::kSawtooth);
+  // Two separate Gaussians: peak picking is unbiased up to the bins.
+  EXPECT_NEAR(saw->spacing_rad / kDeg, 2.0 * std::atan(0.15) / kDeg, 0.1);
+  EXPECT_NEAR(saw->mirror_rad / kDeg, -8.0, 0.05);
+
+  params.model = ProfileModel::kSmooth;
+  absl::StatusOr<PeakPickingResult> smooth = PickPeaks(
+      AnalyticProfile(params, 0.25), -16.0 * kDeg, Projection(), PeakPickingOptions());
+  ASSERT_TRUE(smooth.ok()) << smooth.status();
+  EXPECT_EQ(smooth->model, ProfileModel::kSmooth);
+  EXPECT_FALSE(smooth->split_resolved);
+  EXPECT_NEAR(smooth->mirror_rad / kDeg, -8.0, 0.1);
+}
+
+TEST(PeakPickingTest, ErrorsForProfilesWithoutALobe) {
+  // A flat profile: no lobe near α/2.
+  RadianceParams<double> params;
+  params.scale = 0.0;
+  params.diffuse = 0.0;
+  Profile flat = AnalyticProfile(params, 0.25);
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(flat, 10.0 * kDeg, Projection(), PeakPickingOptions());
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(p.status().message()).find("specular"), std::string::npos)
+      << p.status();
+
+  // Too short or inconsistent.
+  Profile shorter = flat;
+  shorter.block_sum.pop_back();
+  EXPECT_EQ(PickPeaks(shorter, 0.0, Projection(), PeakPickingOptions()).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  Profile empty;
+  EXPECT_EQ(PickPeaks(empty, 0.0, Projection(), PeakPickingOptions()).status().code(),
+            absl::StatusCode::kInvalidArgument);
+
+  PeakPickingOptions options;
+  options.smoothing_deg = -1.0;
+  EXPECT_NE(std::string(options.Validate().message()).find("smoothing_deg"),
+            std::string::npos);
+  options = PeakPickingOptions();
+  options.search_half_width_deg = 0.5;
+  EXPECT_NE(std::string(options.Validate().message()).find("search_half_width_deg"),
+            std::string::npos);
+  options = PeakPickingOptions();
+  options.bootstrap_samples = -1;
+  EXPECT_NE(std::string(options.Validate().message()).find("bootstrap_samples"),
+            std::string::npos);
+  EXPECT_EQ(PickPeaks(flat, 0.0, Projection(), options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace weavefit

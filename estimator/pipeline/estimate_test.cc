@@ -1,0 +1,294 @@
+// Unit tests of pipeline/estimate: the whole estimate from encoded and
+// decoded renders with known truth, and the validation of the acquisition.
+#include "estimator/pipeline/estimate.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "estimator/io/encode.h"
+#include "estimator/render/render.h"
+
+namespace weavefit {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// A sinusoidal weave, m = 0.24 (26.99°), phase 10°, 400×300 (≈ 0.2 s).
+RenderScene SinusoidScene() {
+  RenderScene scene;
+  scene.width_px = 400;
+  scene.height_px = 300;
+  scene.samples_per_pixel = 2;
+  scene.model = ProfileModel::kSinusoid;
+  scene.wavelength_mm = 1.0;
+  scene.amplitude_mm = 0.24 / (2.0 * M_PI);
+  scene.phase_angle_deg = 10.0;
+  scene.center_x_px = 201.2;
+  scene.radius_px = 160.0;
+  scene.seed = 3;
+  return scene;
+}
+
+// Rendered once for all tests of this file.
+const Rendered& SinusoidRender() {
+  static const Rendered* rendered = [] {
+    absl::StatusOr<Rendered> r = RenderPhotograph(SinusoidScene());
+    return new Rendered(r.ok() ? *r : Rendered());
+  }();
+  return *rendered;
+}
+
+Acquisition Lab(double phase_deg = 10.0) {
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = phase_deg * kDeg;
+  acquisition.cylinder_diameter_mm = 46.0;
+  acquisition.pixels_linear = true;
+  return acquisition;
+}
+
+std::string Encoded(const Image& image, EncodeFormat format) {
+  absl::StatusOr<std::string> bytes = EncodeImage(image, format);
+  EXPECT_TRUE(bytes.ok()) << bytes.status();
+  return bytes.ok() ? *bytes : std::string();
+}
+
+void ExpectSinusoidEstimate(const Estimate& e, double tolerance_deg) {
+  const RenderTruth& truth = SinusoidRender().truth;
+  EXPECT_EQ(e.model, ProfileModel::kSinusoid) << ProfileModelName(e.model);
+  ASSERT_TRUE(e.peak_spacing_rad.resolved);
+  EXPECT_NEAR(e.peak_spacing_rad.value / kDeg, truth.peak_spacing_deg, tolerance_deg);
+  EXPECT_GT(e.peak_spacing_rad.stderr_value, 0.0);
+  ASSERT_TRUE(e.max_slope.resolved);
+  EXPECT_NEAR(e.max_slope.value, std::tan(0.5 * e.peak_spacing_rad.value), 1e-12);
+  EXPECT_NEAR(e.max_slope.value, 0.24, 0.01);
+  EXPECT_TRUE(e.specular_azimuth_rad.resolved);
+  EXPECT_NEAR(e.specular_azimuth_rad.value / kDeg, 5.0, 0.5);
+  // This version does not measure the wavelength: unresolved, and said so.
+  EXPECT_FALSE(e.wavelength_mm.resolved);
+  EXPECT_FALSE(e.amplitude_mm.resolved);
+  EXPECT_EQ(e.wavelength_mm.value, 0.0);
+  bool says_so = false;
+  for (const std::string& w : e.warnings) says_so |= w.find("wavelength") != std::string::npos;
+  EXPECT_TRUE(says_so);
+  // The cylinder.
+  EXPECT_NEAR(e.cylinder.center_x_px, 201.2, 0.5);
+  EXPECT_NEAR(e.cylinder.radius_px, 160.0, 1.0);
+  EXPECT_NEAR(e.cylinder.axis_angle_rad / kDeg, 0.0, 0.1);
+  // Candidates: exactly one selected, and it is the reported model.
+  int selected = 0;
+  for (const CandidateScore& c : e.candidates) {
+    if (!c.selected) continue;
+    ++selected;
+    EXPECT_EQ(c.model, e.model);
+  }
+  EXPECT_EQ(selected, 1);
+  EXPECT_EQ(e.method, "peak-picking");
+  EXPECT_GT(e.profile.NumBins(), 0);
+  const std::string brief = e.BriefReport();
+  EXPECT_NE(brief.find("SINUSOID"), std::string::npos) << brief;
+  EXPECT_NE(brief.find("spacing"), std::string::npos) << brief;
+}
+
+std::vector<std::string> Stages(const Estimate& e) {
+  std::vector<std::string> stages;
+  for (const StageTime& t : e.timings) {
+    EXPECT_GE(t.milliseconds, 0.0) << t.stage;
+    stages.push_back(t.stage);
+  }
+  return stages;
+}
+
+TEST(EstimateTest, FromPng16Bytes) {
+  const Rendered& r = SinusoidRender();
+  ASSERT_EQ(r.image.width, 400);
+  const std::string bytes = Encoded(r.image, EncodeFormat::kPng16);
+  absl::StatusOr<Estimate> e = EstimateFromBytes(bytes, Lab(), EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  ExpectSinusoidEstimate(*e, 1.0);
+  EXPECT_EQ(e->image.width, 400);
+  EXPECT_EQ(e->image.height, 300);
+  EXPECT_EQ(e->image.channels, 1);
+  EXPECT_EQ(e->image.format, "png");
+  EXPECT_EQ(e->image.bit_depth, 16);
+  EXPECT_EQ(e->image.saturated_pixels, 0);
+  EXPECT_EQ(Stages(*e), (std::vector<std::string>{"decode", "detect", "profile", "peaks"}));
+}
+
+TEST(EstimateTest, FromImageMatchesFromBytes) {
+  const Rendered& r = SinusoidRender();
+  absl::StatusOr<Estimate> from_image = EstimateFromImage(r.image, Lab(), EstimateOptions());
+  ASSERT_TRUE(from_image.ok()) << from_image.status();
+  ExpectSinusoidEstimate(*from_image, 1.0);
+  EXPECT_EQ(Stages(*from_image), (std::vector<std::string>{"detect", "profile", "peaks"}));
+  EXPECT_EQ(from_image->image.format, "");
+
+  absl::StatusOr<Estimate> from_bytes = EstimateFromBytes(
+      Encoded(r.image, EncodeFormat::kPng16), Lab(), EstimateOptions());
+  ASSERT_TRUE(from_bytes.ok()) << from_bytes.status();
+  // 16-bit encoding of 12-bit data changes nothing that matters.
+  EXPECT_EQ(from_image->model, from_bytes->model);
+  EXPECT_NEAR(from_image->peak_spacing_rad.value, from_bytes->peak_spacing_rad.value,
+              0.02 * kDeg);
+  EXPECT_NEAR(from_image->cylinder.center_x_px, from_bytes->cylinder.center_x_px, 0.01);
+}
+
+TEST(EstimateTest, FromRgbImageUsesLuminance) {
+  const Rendered& r = SinusoidRender();
+  Image rgb = r.image;
+  rgb.channels = 3;
+  rgb.pixels.clear();
+  for (float v : r.image.pixels) rgb.pixels.insert(rgb.pixels.end(), {v, v, v});
+  absl::StatusOr<Estimate> e = EstimateFromImage(rgb, Lab(), EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->image.channels, 3);
+  ExpectSinusoidEstimate(*e, 1.0);
+}
+
+TEST(EstimateTest, FromSrgbPng8Bytes) {
+  // An 8-bit sRGB file is linearised before the estimate.
+  const Rendered& r = SinusoidRender();
+  Acquisition acquisition = Lab();
+  acquisition.pixels_linear = false;
+  absl::StatusOr<Estimate> e = EstimateFromBytes(
+      Encoded(r.image, EncodeFormat::kPng8), acquisition, EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->image.bit_depth, 8);
+  ExpectSinusoidEstimate(*e, 1.0);
+}
+
+TEST(EstimateTest, PerspectiveSawtooth) {
+  RenderScene scene = SinusoidScene();
+  scene.model = ProfileModel::kSawtooth;
+  scene.amplitude_mm = 0.15 * scene.wavelength_mm / 4.0;  // 17.06°
+  scene.camera_distance_mm = 900.0;
+  scene.phase_angle_deg = 30.0;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  Acquisition acquisition = Lab(30.0);
+  acquisition.camera_distance_mm = 900.0;
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, acquisition, EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSawtooth) << ProfileModelName(e->model);
+  ASSERT_TRUE(e->peak_spacing_rad.resolved);
+  EXPECT_NEAR(e->peak_spacing_rad.value / kDeg, 17.0615, 0.3);
+  // Mirror point (α + v)/2 with v ≈ −0.39° at φ = 15°, D = 900 mm.
+  EXPECT_NEAR(e->specular_azimuth_rad.value / kDeg, 14.8, 0.2);
+}
+
+TEST(EstimateTest, BadBytes) {
+  std::mt19937 rng(1);
+  std::string garbage(2000, '\0');
+  for (char& c : garbage) c = static_cast<char>(rng() & 0xFF);
+  garbage[0] = 'G';
+  absl::StatusOr<Estimate> e = EstimateFromBytes(garbage, Lab(), EstimateOptions());
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(EstimateFromBytes("", Lab(), EstimateOptions()).status().code(),
+            absl::StatusCode::kInvalidArgument);
+
+  EstimateOptions small;
+  small.max_pixels = 1000;
+  const std::string png = Encoded(SinusoidRender().image, EncodeFormat::kPng16);
+  EXPECT_EQ(EstimateFromBytes(png, Lab(), small).status().code(),
+            absl::StatusCode::kResourceExhausted);
+}
+
+TEST(EstimateTest, NoCylinder) {
+  Image noise;
+  noise.width = 200;
+  noise.height = 150;
+  noise.channels = 1;
+  std::mt19937 rng(2);
+  std::normal_distribution<float> value(0.2f, 0.01f);
+  for (int i = 0; i < noise.width * noise.height; ++i) noise.pixels.push_back(value(rng));
+  absl::StatusOr<Estimate> e = EstimateFromImage(noise, Lab(), EstimateOptions());
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(e.status().message()).find("no cylinder"), std::string::npos)
+      << e.status();
+}
+
+// The message of Validate() for an acquisition, "" when OK.
+std::string Invalid(const Acquisition& a) {
+  const absl::Status s = a.Validate();
+  if (!s.ok()) {
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  }
+  return std::string(s.message());
+}
+
+TEST(AcquisitionTest, ValidateNamesTheField) {
+  EXPECT_TRUE(Lab().Validate().ok());
+  EXPECT_TRUE(Lab(-179.0).Validate().ok());
+  EXPECT_TRUE(Lab(179.0).Validate().ok());
+
+  EXPECT_NE(Invalid(Lab(180.0)).find("phase_angle_deg"), std::string::npos);
+  EXPECT_NE(Invalid(Lab(-180.0)).find("phase_angle_deg"), std::string::npos);
+  EXPECT_NE(Invalid(Lab(250.0)).find("phase_angle_deg"), std::string::npos);
+  Acquisition a = Lab();
+  a.phase_angle_rad = std::nan("");
+  EXPECT_NE(Invalid(a).find("phase_angle_deg"), std::string::npos);
+
+  a = Lab();
+  a.cylinder_diameter_mm = -46.0;
+  EXPECT_NE(Invalid(a).find("cylinder_diameter_mm"), std::string::npos);
+  a.cylinder_diameter_mm = 0.0;
+  EXPECT_NE(Invalid(a).find("cylinder_diameter_mm"), std::string::npos);
+  a.cylinder_diameter_mm = INFINITY;
+  EXPECT_NE(Invalid(a).find("cylinder_diameter_mm"), std::string::npos);
+
+  a = Lab();
+  a.camera_distance_mm = 20.0;  // inside the 23 mm radius
+  EXPECT_NE(Invalid(a).find("camera_distance_mm"), std::string::npos);
+  a.camera_distance_mm = 23.0;  // on the surface
+  EXPECT_NE(Invalid(a).find("camera_distance_mm"), std::string::npos);
+  a.camera_distance_mm = -1.0;
+  EXPECT_NE(Invalid(a).find("camera_distance_mm"), std::string::npos);
+  a.camera_distance_mm = 900.0;
+  EXPECT_TRUE(a.Validate().ok());
+  a.camera_distance_mm = 0.0;  // orthographic
+  EXPECT_TRUE(a.Validate().ok());
+
+  a = Lab();
+  a.region.width = -5;
+  EXPECT_NE(Invalid(a).find("roi"), std::string::npos);
+  a = Lab();
+  a.saturation_level = -1.0;
+  EXPECT_NE(Invalid(a).find("saturation_level"), std::string::npos);
+}
+
+TEST(AcquisitionTest, InvalidAcquisitionStopsTheEstimate) {
+  const Rendered& r = SinusoidRender();
+  Acquisition a = Lab(180.0);
+  absl::StatusOr<Estimate> e = EstimateFromImage(r.image, a, EstimateOptions());
+  ASSERT_FALSE(e.ok());
+  EXPECT_NE(std::string(e.status().message()).find("phase_angle_deg"), std::string::npos);
+  a = Lab();
+  a.cylinder_diameter_mm = -1.0;
+  e = EstimateFromBytes("not even an image", a, EstimateOptions());
+  ASSERT_FALSE(e.ok());
+  EXPECT_NE(std::string(e.status().message()).find("cylinder_diameter_mm"), std::string::npos);
+
+  EstimateOptions options;
+  options.max_pixels = 0;
+  EXPECT_EQ(EstimateFromImage(r.image, Lab(), options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(AcquisitionTest, ProjectionFromTheAcquisition) {
+  Acquisition a = Lab();
+  a.cylinder_diameter_mm = 50.0;
+  a.camera_distance_mm = 700.0;
+  const Projection p = a.GetProjection();
+  EXPECT_EQ(p.radius_mm, 25.0);
+  EXPECT_EQ(p.camera_distance_mm, 700.0);
+  EXPECT_TRUE(p.IsPerspective());
+}
+
+}  // namespace
+}  // namespace weavefit
