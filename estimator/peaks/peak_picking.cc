@@ -160,7 +160,7 @@ double SmoothedSinusoidSpacing(double max_slope, double sigma_rad,
   p.mirror_rad = mirror_rad;
   p.blur_rad = sigma_rad;
   const double reach = std::atan(max_slope) + 5.0 * sigma_rad;
-  const double step = std::min(sigma_rad, std::atan(max_slope)) / 20.0;
+  const double step = std::min(sigma_rad, std::atan(max_slope)) / 10.0;
   const int n = static_cast<int>(std::ceil(2.0 * reach / step)) + 1;
   std::vector<double> f(n);
   for (int i = 0; i < n; ++i) {
@@ -177,18 +177,19 @@ double SmoothedSinusoidSpacing(double max_slope, double sigma_rad,
 }
 
 // The max slope whose smoothed sinusoid lobe shows `spacing_rad` between its
-// maxima (bisection; the smoothed spacing grows with m). Returns the spacing
-// itself as a slope when the smoothing merges the peaks of every candidate.
+// maxima. Smoothing shifts the maxima inward by an amount that barely
+// depends on m, so the fixed-point iteration g ← g + (target − S(g)) on the
+// true spacing g converges in a few steps.
 double InvertSmoothedSinusoidSpacing(double spacing_rad, double sigma_rad,
                                      double mirror_rad) {
-  double lo = std::tan(0.5 * spacing_rad);  // smoothing only pulls peaks in
-  double hi = std::tan(std::min(0.5 * spacing_rad + 4.0 * sigma_rad, 1.4));
-  if (SmoothedSinusoidSpacing(hi, sigma_rad, mirror_rad) < spacing_rad) return hi;
-  for (int it = 0; it < 40; ++it) {
-    const double m = 0.5 * (lo + hi);
-    (SmoothedSinusoidSpacing(m, sigma_rad, mirror_rad) < spacing_rad ? lo : hi) = m;
+  double g = spacing_rad;
+  for (int it = 0; it < 20; ++it) {
+    const double m = std::tan(0.5 * std::clamp(g, 1e-4, 2.8));
+    const double miss = spacing_rad - SmoothedSinusoidSpacing(m, sigma_rad, mirror_rad);
+    g += miss;
+    if (std::fabs(miss) < 1e-6) break;
   }
-  return 0.5 * (lo + hi);
+  return std::tan(0.5 * std::clamp(g, 1e-4, 2.8));
 }
 
 // Position (bin index) of the highest local maximum of s in [a, b], refined.
