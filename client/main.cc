@@ -16,6 +16,10 @@
 #include <iostream>
 #include <optional>
 #include <sstream>
+#include <type_traits>
+#include <variant>
+#include <algorithm>
+#include <cctype>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
@@ -246,15 +250,124 @@ struct RenderFlags {
   std::string model = "sinusoid";
   std::string out;
   std::string format;
+  std::string scene_file;
+  std::vector<double> specular_rgb;
+  std::vector<double> axial_rgb;
+  std::vector<double> diffuse_rgb;
 };
 
+// One scene parameter: its flag, its key in a scene JSON file (the sidecar's
+// "scene" object uses the same keys), its help text, and where it lives.
+struct SceneParam {
+  const char* flag;
+  const char* key;
+  const char* help;
+  std::variant<double*, int*, bool*, std::uint32_t*> target;
+};
+
+std::vector<SceneParam> SceneParams(RenderScene& s) {
+  return {
+      {"--width", "widthPx", "image width, px", &s.width_px},
+      {"--height", "heightPx", "image height, px", &s.height_px},
+      {"--wavelength-mm", "wavelengthMm", "thread undulation period lambda, mm", &s.wavelength_mm},
+      {"--amplitude-mm", "amplitudeMm", "undulation amplitude h0, mm (sawtooth: half peak-to-peak)", &s.amplitude_mm},
+      {"--diameter-mm", "diameterMm", "cylinder diameter, mm", &s.diameter_mm},
+      {"--distance-mm", "cameraDistanceMm", "camera distance from the axis, mm; 0 = orthographic", &s.camera_distance_mm},
+      {"--phase-angle", "phaseAngleDeg", "signed phase angle, deg; > 0 = light on the image's right", &s.phase_angle_deg},
+      {"--center-x", "centerXPx", "axis column at the middle row, px; < 0 = image centre", &s.center_x_px},
+      {"--radius-px", "radiusPx", "cylinder limb half-width, px; < 0 = 40% of the width", &s.radius_px},
+      {"--tilt-deg", "axisAngleDeg", "axis tilt, deg; > 0 = top toward the right", &s.axis_angle_deg},
+      {"--top-row", "topRowPx", "first row of the cylinder (its upper end); < 0 = beyond the frame", &s.top_row_px},
+      {"--bottom-row", "bottomRowPx", "last row of the cylinder (its lower end); < 0 = beyond the frame", &s.bottom_row_px},
+      {"--source-blur-deg", "sourceBlurDeg", "angular sigma of the light source, deg (blur in facet tilt is half)", &s.source_blur_deg},
+      {"--exposure", "exposure", "E0: source irradiance times gain, full-scale units", &s.exposure},
+      {"--axial-reflectance", "axialReflectance", "reflectance of the threads along the axis (grazing scatter), relative", &s.axial_reflectance},
+      {"--diffuse", "diffuse", "Lambertian level (coloured fabrics)", &s.diffuse},
+      {"--ambient", "ambient", "uniform level of the cylinder body", &s.ambient},
+      {"--background", "background", "level outside the cylinder", &s.background},
+      {"--gap-fraction", "gapFraction", "share of each thread pitch showing axial threads", &s.gap_fraction},
+      {"--crest-tilt-deg", "crestTiltDeg", "out-of-plane tilt at a thread's edges, deg; 0 = flat ribbons", &s.crest_tilt_deg},
+      {"--phase-step", "phaseStep", "weave phase between neighbouring threads, periods (0.5 = plain weave)", &s.phase_step},
+      {"--regular-weave", "regularWeave", "no drift or jitter of the weave phase", &s.regular_weave},
+      {"--phase-jitter", "phaseJitter", "per-thread random phase shift, periods", &s.phase_jitter},
+      {"--phase-drift", "phaseDrift", "random-walk step of the weave phase per thread, periods", &s.phase_drift},
+      {"--optics-blur-px", "opticsBlurPx", "Gaussian sigma of the lens PSF, px", &s.optics_blur_px},
+      {"--vignetting", "vignetting", "relative fall-off at the image corners", &s.vignetting},
+      {"--photons", "photonsFullScale", "photons at full scale (shot noise); 0 = none", &s.photons_full_scale},
+      {"--read-noise", "readNoise", "Gaussian read noise, full-scale units", &s.read_noise},
+      {"--bits", "quantisationBits", "ADC bits; 0 = no quantisation", &s.quantisation_bits},
+      {"--samples", "samplesPerPixel", "samples per pixel per axis (4x along the arc in the lobe)", &s.samples_per_pixel},
+      {"--seed", "seed", "random seed (weave irregularity and noise)", &s.seed},
+  };
+}
+
+// Applies a scene JSON file: the "scene" object of a truth sidecar, or a
+// plain object with the same keys. Unknown keys are an error.
+absl::Status LoadSceneFile(const std::string& path, RenderFlags& flags) {
+  absl::StatusOr<std::string> text = ReadFile(path);
+  if (!text.ok()) return text.status();
+  google::protobuf::Struct root;
+  if (!google::protobuf::util::JsonStringToMessage(*text, &root).ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(path, " is not a JSON object"));
+  }
+  const google::protobuf::Struct* scene = &root;
+  if (auto it = root.fields().find("scene"); it != root.fields().end() && it->second.has_struct_value()) {
+    scene = &it->second.struct_value();
+  }
+  std::vector<SceneParam> params = SceneParams(flags.scene);
+  for (const auto& [key, value] : scene->fields()) {
+    if (key == "model") {
+      std::string m = value.string_value();
+      for (char& c : m) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      flags.model = m;
+      continue;
+    }
+    if (key == "specularRgb" || key == "axialRgb" || key == "diffuseRgb") {
+      std::vector<double>& rgb = key == "specularRgb" ? flags.specular_rgb
+                                 : key == "axialRgb"  ? flags.axial_rgb
+                                                      : flags.diffuse_rgb;
+      rgb.clear();
+      for (const auto& v : value.list_value().values()) rgb.push_back(v.number_value());
+      continue;
+    }
+    auto param = std::find_if(params.begin(), params.end(),
+                              [&](const SceneParam& p) { return key == p.key; });
+    if (param == params.end()) {
+      return absl::InvalidArgumentError(absl::StrCat(path, ": unknown scene key '", key, "'"));
+    }
+    std::visit([&](auto* target) {
+      using T = std::remove_pointer_t<decltype(target)>;
+      if constexpr (std::is_same_v<T, bool>) {
+        *target = value.bool_value();
+      } else {
+        *target = static_cast<T>(value.number_value());
+      }
+    }, param->target);
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ApplyRgb(const std::vector<double>& from, double* to, const char* name) {
+  if (from.empty()) return absl::OkStatus();
+  if (from.size() != 3) {
+    return absl::InvalidArgumentError(absl::StrCat(name, " takes three numbers (R G B)"));
+  }
+  std::copy(from.begin(), from.end(), to);
+  return absl::OkStatus();
+}
+
 int RunRender(RenderFlags& flags) {
+  absl::Status status = ApplyRgb(flags.specular_rgb, flags.scene.specular_rgb, "--specular-rgb");
+  if (status.ok()) status = ApplyRgb(flags.axial_rgb, flags.scene.axial_rgb, "--axial-rgb");
+  if (status.ok()) status = ApplyRgb(flags.diffuse_rgb, flags.scene.diffuse_rgb, "--diffuse-rgb");
   if (flags.model == "smooth") {
     flags.scene.model = ProfileModel::kSmooth;
   } else if (flags.model == "sawtooth") {
     flags.scene.model = ProfileModel::kSawtooth;
-  } else {
+  } else if (flags.model == "sinusoid") {
     flags.scene.model = ProfileModel::kSinusoid;
+  } else if (status.ok()) {
+    status = absl::InvalidArgumentError(absl::StrCat("unknown model '", flags.model, "'"));
   }
   std::string format = flags.format;
   if (format.empty()) {
@@ -262,12 +375,13 @@ int RunRender(RenderFlags& flags) {
     format = dot == std::string::npos ? "png" : flags.out.substr(dot + 1);
   }
   absl::StatusOr<EncodeFormat> encode_format = ParseEncodeFormat(format);
-  absl::StatusOr<Rendered> rendered = encode_format.ok()
-      ? RenderPhotograph(flags.scene) : absl::StatusOr<Rendered>(encode_format.status());
+  if (status.ok()) status = encode_format.status();
+  absl::StatusOr<Rendered> rendered = status.ok() ? RenderPhotograph(flags.scene)
+                                                  : absl::StatusOr<Rendered>(status);
   absl::StatusOr<std::string> bytes = rendered.ok()
       ? EncodeImage(rendered->image, *encode_format)
       : absl::StatusOr<std::string>(rendered.status());
-  absl::Status status = bytes.status();
+  status = bytes.status();
   if (status.ok()) status = WriteFile(flags.out, *bytes);
   if (status.ok()) {
     const std::size_t slash = flags.out.find_last_of('/');
@@ -282,38 +396,24 @@ int RunRender(RenderFlags& flags) {
 }
 
 void AddRenderFlags(CLI::App* app, RenderFlags* f) {
-  RenderScene& s = f->scene;
   app->add_option("--out", f->out, "output image; its extension picks the format")->required();
-  app->add_option("--format", f->format, "png (16-bit), png8 (sRGB), tiff, exr, jpeg");
-  app->add_option("--model", f->model, "thread profile")
-      ->check(CLI::IsMember({"smooth", "sinusoid", "sawtooth"}))->capture_default_str();
-  app->add_option("--width", s.width_px, "image width, px")->capture_default_str();
-  app->add_option("--height", s.height_px, "image height, px")->capture_default_str();
-  app->add_option("--wavelength-mm", s.wavelength_mm, "thread undulation period λ, mm")->capture_default_str();
-  app->add_option("--amplitude-mm", s.amplitude_mm, "undulation amplitude h0, mm")->capture_default_str();
-  app->add_option("--diameter-mm", s.diameter_mm, "cylinder diameter, mm")->capture_default_str();
-  app->add_option("--distance-mm", s.camera_distance_mm, "camera distance from the axis, mm; 0 = orthographic")->capture_default_str();
-  app->add_option("--phase-angle", s.phase_angle_deg, "signed phase angle, deg")->capture_default_str();
-  app->add_option("--center-x", s.center_x_px, "axis column at the middle row, px; <0 = image centre")->capture_default_str();
-  app->add_option("--radius-px", s.radius_px, "cylinder limb half-width, px; <0 = 40% of the width")->capture_default_str();
-  app->add_option("--tilt-deg", s.axis_angle_deg, "axis tilt, deg; >0 = top toward the right")->capture_default_str();
-  app->add_option("--top-row", s.top_row_px, "first row of the cylinder; <0 = beyond the frame")->capture_default_str();
-  app->add_option("--bottom-row", s.bottom_row_px, "last row of the cylinder; <0 = beyond the frame")->capture_default_str();
-  app->add_option("--source-blur-deg", s.source_blur_deg, "angular sigma of the light source, deg")->capture_default_str();
-  app->add_option("--exposure", s.exposure, "E0, full-scale units")->capture_default_str();
-  app->add_option("--scatter", s.scatter, "grazing scatter level of the axial threads")->capture_default_str();
-  app->add_option("--diffuse", s.diffuse, "Lambertian level")->capture_default_str();
-  app->add_option("--ambient", s.ambient, "uniform level of the cylinder body")->capture_default_str();
-  app->add_option("--background", s.background, "level outside the cylinder")->capture_default_str();
-  app->add_option("--gap-fraction", s.gap_fraction, "share of each thread pitch showing axial threads")->capture_default_str();
-  app->add_flag("--regular-weave", s.regular_weave, "no drift or jitter of the weave phase");
-  app->add_option("--phase-jitter", s.phase_jitter, "per-thread phase jitter, periods")->capture_default_str();
-  app->add_option("--phase-drift", s.phase_drift, "random-walk step of the weave phase, periods")->capture_default_str();
-  app->add_option("--photons", s.photons_full_scale, "photons at full scale (shot noise); 0 = none")->capture_default_str();
-  app->add_option("--read-noise", s.read_noise, "Gaussian read noise, full-scale units")->capture_default_str();
-  app->add_option("--bits", s.quantisation_bits, "ADC bits; 0 = no quantisation")->capture_default_str();
-  app->add_option("--samples", s.samples_per_pixel, "samples per pixel per axis (4x along the arc)")->capture_default_str();
-  app->add_option("--seed", s.seed, "random seed")->capture_default_str();
+  app->add_option("--format", f->format, "png (16-bit linear), png8 (8-bit sRGB), tiff (16-bit), exr (float), jpeg (sRGB)");
+  app->add_option("--scene", f->scene_file,
+                  "scene JSON (a sidecar's \"scene\" object or the same keys); flags given too override it");
+  app->add_option("--model", f->model, "thread profile: smooth, sinusoid or sawtooth")->capture_default_str();
+  for (const SceneParam& p : SceneParams(f->scene)) {
+    std::visit([&](auto* target) {
+      using T = std::remove_pointer_t<decltype(target)>;
+      if constexpr (std::is_same_v<T, bool>) {
+        app->add_flag(p.flag, *target, p.help);
+      } else {
+        app->add_option(p.flag, *target, p.help)->capture_default_str();
+      }
+    }, p.target);
+  }
+  app->add_option("--specular-rgb", f->specular_rgb, "R G B factors of the circumferential threads (colour render)")->expected(3);
+  app->add_option("--axial-rgb", f->axial_rgb, "R G B factors of the axial threads")->expected(3);
+  app->add_option("--diffuse-rgb", f->diffuse_rgb, "R G B diffuse albedo")->expected(3);
 }
 
 }  // namespace
@@ -331,6 +431,20 @@ int main(int argc, char** argv) {
   weavefit::AddEstimateFlags(submit, &submit_flags, true);
   CLI::App* render = app.add_subcommand("render", "render a cylinder photograph with a truth sidecar");
   weavefit::AddRenderFlags(render, &render_flags);
+  // A scene file sets the defaults; flags on the command line override it.
+  for (int i = 1; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "render") {
+      for (int k = i + 1; k + 1 < argc; ++k) {
+        if (std::string(argv[k]) == "--scene") {
+          if (absl::Status s = weavefit::LoadSceneFile(argv[k + 1], render_flags); !s.ok()) {
+            std::cerr << "weavefit render: " << s.message() << "\n";
+            return static_cast<int>(s.code());
+          }
+        }
+      }
+      break;
+    }
+  }
   CLI11_PARSE(app, argc, argv);
   if (*estimate) return weavefit::RunEstimates(estimate_flags, false);
   if (*submit) return weavefit::RunEstimates(submit_flags, true);

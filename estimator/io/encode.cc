@@ -134,7 +134,7 @@ absl::StatusOr<std::string> EncodeImage(const Image& image,
   } else if (format == EncodeFormat::kTiff16) {
     ext = ".tiff";
   } else {
-    params = {cv::IMWRITE_PNG_COMPRESSION, 9};
+    params = {cv::IMWRITE_PNG_COMPRESSION, 6};
   }
   std::vector<unsigned char> buffer;
   try {

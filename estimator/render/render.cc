@@ -6,8 +6,12 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "estimator/cylinder/azimuth_mapping.h"
+
+#include <opencv2/imgproc.hpp>
+#include <thread>
 
 namespace weavefit {
 namespace {
@@ -29,6 +33,166 @@ double ThreadSlope(ProfileModel model, double max_slope, double wavelength_mm,
   return 0.0;
 }
 
+// Mean of exp(−(κ·(t − ½))²/2) over t in [t0, t1]: the share of a rounded
+// thread's cross-section whose out-of-plane tilt still sends the source into
+// the camera (the tilt grows linearly from the crest at t = ½).
+double CrestFactor(double t0, double t1, double kappa) {
+  if (kappa < 1e-9 || t1 <= t0) return 1.0;
+  const double a = kappa * (t0 - 0.5) / std::sqrt(2.0);
+  const double b = kappa * (t1 - 0.5) / std::sqrt(2.0);
+  return std::sqrt(M_PI / 2.0) / (kappa * (t1 - t0)) * (std::erf(b) - std::erf(a));
+}
+
+// The geometric terms of one surface sample, before colour and exposure.
+struct Terms {
+  bool on_cylinder = false;
+  double specular = 0.0;  // circumferential threads, per unit E0
+  double axial = 0.0;     // axial threads, per unit E0
+  double diffuse = 0.0;   // max(0, cos(φ − α))
+};
+
+// Everything per scene that the per-sample geometry needs.
+class Sampler {
+ public:
+  explicit Sampler(const RenderScene& scene) : scene_(scene) {
+    cx_ = scene.center_x_px >= 0 ? scene.center_x_px : (scene.width_px - 1) / 2.0;
+    cy_ = (scene.height_px - 1) / 2.0;
+    radius_px_ = scene.radius_px > 0 ? scene.radius_px : 0.4 * scene.width_px;
+    const double tilt = scene.axis_angle_deg * kDeg;
+    tan_tilt_ = std::tan(tilt);
+    cos_tilt_ = std::cos(tilt);
+    sin_tilt_ = std::sin(tilt);
+    alpha_ = scene.phase_angle_deg * kDeg;
+    m_ = scene.MaxSlope();
+    sigma_beta_ = 0.5 * scene.source_blur_deg * kDeg;
+    projection_ = Projection{scene.diameter_mm / 2.0, scene.camera_distance_mm};
+    radius_mm_ = scene.diameter_mm / 2.0;
+    mm_per_px_ = radius_mm_ / radius_px_;
+    pitch_mm_ = scene.wavelength_mm / 2.0;  // plain weave
+    top_ = scene.top_row_px >= 0 ? scene.top_row_px : -1000000;
+    bottom_ = scene.bottom_row_px >= 0 ? scene.bottom_row_px : 1000000;
+    inv_gauss_ = 1.0 / (std::sqrt(2.0 * M_PI) * sigma_beta_);
+    // Crest: out-of-plane tilt γ = γmax·(2t − 1) across the thread (t in
+    // [0, 1]); an out-of-plane normal tilt γ turns the reflected ray by
+    // 2γ·cos h, against a source of angular σ. Normalised to the whole
+    // thread at h = 0, so that `exposure` keeps its meaning and only the
+    // 1/cos(α/2) growth of the level remains (DESIGN.md §3).
+    const double gamma_max = scene.crest_tilt_deg * kDeg;
+    crest_kappa0_ = 4.0 * gamma_max / (scene.source_blur_deg * kDeg);
+    crest_norm_ = CrestFactor(0.0, 1.0, crest_kappa0_);
+
+    // Weave phase per circumferential thread: phase_step periods between
+    // neighbours (½ for a plain weave) plus, unless regular, a slow random
+    // walk and a jitter.
+    std::mt19937 rng(scene.seed);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    const double axis_length_mm = (scene.height_px + scene.width_px) * mm_per_px_ * 2.0;
+    num_threads_ = static_cast<int>(std::ceil(axis_length_mm / pitch_mm_)) + 4;
+    first_thread_ = -num_threads_ / 2;
+    thread_phase_mm_.resize(num_threads_);
+    double walk = 0.0;
+    for (int j = 0; j < num_threads_; ++j) {
+      double cycles = scene.phase_step * (first_thread_ + j);
+      if (!scene.regular_weave) {
+        walk += scene.phase_drift * normal(rng);
+        cycles += walk + scene.phase_jitter * normal(rng);
+      }
+      thread_phase_mm_[j] = cycles * scene.wavelength_mm;
+    }
+  }
+
+  double cx() const { return cx_; }
+  double radius_px() const { return radius_px_; }
+  double max_slope() const { return m_; }
+  double mm_per_px() const { return mm_per_px_; }
+  double sigma_beta() const { return sigma_beta_; }
+
+  // Whether a pixel centred at (x, y) may hold an in-plane glint, so that
+  // it needs the fine sampling along the arc.
+  bool MayGlint(double x, double y) const {
+    const double offset = Offset(x, y);
+    if (std::fabs(offset) >= 1.0) return false;
+    const double phi = AzimuthFromOffset(offset, projection_);
+    const double mirror = 0.5 * (alpha_ + ViewAngleRad(phi, projection_));
+    const double pixel_rad = 1.5 / (radius_px_ * std::max(std::cos(phi), 0.05));
+    return std::fabs(phi - mirror) <= std::atan(m_) + 7.0 * sigma_beta_ + pixel_rad;
+  }
+
+  // The sample at image point (u, v) covering dv pixels vertically.
+  Terms Sample(double u, double v, double dv) const {
+    Terms t;
+    const double axis_u = cx_ + (cy_ - v) * tan_tilt_;
+    const double offset = (u - axis_u) * cos_tilt_ / radius_px_;
+    const double along_px = (cy_ - v) / cos_tilt_ + (u - axis_u) * sin_tilt_;
+    const int row_on_axis = static_cast<int>(std::lround(cy_ - along_px));
+    if (std::fabs(offset) >= 1.0 || row_on_axis < top_ || row_on_axis > bottom_) return t;
+    t.on_cylinder = true;
+    const double phi = AzimuthFromOffset(offset, projection_);
+    const double view = ViewAngleRad(phi, projection_);
+    const double mirror = 0.5 * (alpha_ + view);  // facet normal that mirrors
+    const double cos_h = std::cos(mirror - view);  // incidence on that facet
+    const double cos_phi = std::max(std::cos(phi), kMinCosAzimuth);
+    t.diffuse = std::max(0.0, std::cos(phi - alpha_));
+
+    const double pitches = along_px * mm_per_px_ / pitch_mm_;
+    const int thread = static_cast<int>(std::floor(pitches));
+    const double across = pitches - thread;
+    const double g = scene_.gap_fraction;
+    if (across < 0.5 * g || across > 1.0 - 0.5 * g) {
+      // Axial thread: a small round specular cylinder whose normal sweeps
+      // ψ over (−90°, 90°) around φ with density cos ψ / 2 per mean arc.
+      // Its glint (at ψ* = mirror − φ) is far narrower than a pixel, so it
+      // is integrated analytically: E0/2 · cos h · p(ψ*) / (cos ψ* · cos φ).
+      if (std::fabs(mirror - phi) < M_PI / 2.0) t.axial = 0.25 * cos_h / cos_phi;
+      return t;
+    }
+    const int index = std::clamp(thread - first_thread_, 0, num_threads_ - 1);
+    const double s_mm = radius_mm_ * phi + thread_phase_mm_[index];
+    const double slope = ThreadSlope(scene_.model, m_, scene_.wavelength_mm, s_mm);
+    const double beta = -std::atan(slope);
+    const double eps = phi + beta - mirror;
+    // Far outside the source's reach: no glint (saves the rest).
+    if (std::fabs(eps) > 8.0 * sigma_beta_) return t;
+    const double cos_beta = 1.0 / std::sqrt(1.0 + slope * slope);
+    // Mirror radiance of a Gaussian source, E0·G(2ε; 2σ_β), times the facet's
+    // projected width over the mean surface's (DESIGN.md §3):
+    // cos(φ+β−v) / (cos β · cos φ); the thread covers 1 − g of the pitch.
+    const double in_plane = 0.5 * inv_gauss_ * std::exp(-0.5 * eps * eps / (sigma_beta_ * sigma_beta_)) *
+                            std::max(std::cos(phi + beta - view), 0.0) / (cos_beta * cos_phi) /
+                            (1.0 - g);
+    // Crest factor over this sample's share of the thread's width.
+    const double half = 0.5 * dv * mm_per_px_ / pitch_mm_ / (1.0 - g);
+    const double t_mid = (across - 0.5 * g) / (1.0 - g);
+    const double crest = CrestFactor(std::max(t_mid - half, 0.0), std::min(t_mid + half, 1.0),
+                                     crest_kappa0_ * cos_h) / crest_norm_;
+    t.specular = in_plane * crest;
+    return t;
+  }
+
+ private:
+  double Offset(double x, double y) const {
+    const double axis_u = cx_ + (cy_ - y) * tan_tilt_;
+    return (x - axis_u) * cos_tilt_ / radius_px_;
+  }
+
+  const RenderScene& scene_;
+  double cx_, cy_, radius_px_, tan_tilt_, cos_tilt_, sin_tilt_, alpha_, m_, sigma_beta_;
+  Projection projection_;
+  double radius_mm_, mm_per_px_, pitch_mm_;
+  int top_, bottom_;
+  double inv_gauss_, crest_kappa0_, crest_norm_;
+  int num_threads_ = 0;
+  int first_thread_ = 0;
+  std::vector<double> thread_phase_mm_;
+};
+
+// Mirror azimuth of a smooth cylinder: φ = (α + v(φ))/2, by fixed point.
+double MirrorAzimuth(double alpha, const Projection& projection) {
+  double phi = alpha / 2.0;
+  for (int i = 0; i < 50; ++i) phi = 0.5 * (alpha + ViewAngleRad(phi, projection));
+  return phi;
+}
+
 }  // namespace
 
 double RenderScene::MaxSlope() const {
@@ -41,6 +205,13 @@ double RenderScene::MaxSlope() const {
       break;
   }
   return 0.0;
+}
+
+bool RenderScene::IsColour() const {
+  for (int c = 0; c < 3; ++c) {
+    if (specular_rgb[c] != 1.0 || axial_rgb[c] != 1.0 || diffuse_rgb[c] != 1.0) return true;
+  }
+  return false;
 }
 
 absl::Status RenderScene::Validate() const {
@@ -60,6 +231,15 @@ absl::Status RenderScene::Validate() const {
   if (!(gap_fraction >= 0 && gap_fraction < 1)) {
     return absl::InvalidArgumentError("gap_fraction must be in [0, 1)");
   }
+  if (!(crest_tilt_deg >= 0 && crest_tilt_deg < 90)) {
+    return absl::InvalidArgumentError("crest_tilt_deg must be in [0, 90)");
+  }
+  if (!(optics_blur_px >= 0 && optics_blur_px <= 50)) {
+    return absl::InvalidArgumentError("optics_blur_px must be in [0, 50]");
+  }
+  if (!(vignetting >= 0 && vignetting < 1)) {
+    return absl::InvalidArgumentError("vignetting must be in [0, 1)");
+  }
   if (samples_per_pixel < 1 || samples_per_pixel > 16) {
     return absl::InvalidArgumentError("samples_per_pixel must be in [1, 16]");
   }
@@ -74,104 +254,82 @@ absl::Status RenderScene::Validate() const {
 
 absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
   if (absl::Status s = scene.Validate(); !s.ok()) return s;
-  const double width = scene.width_px;
-  const double height = scene.height_px;
-  const double cx = scene.center_x_px >= 0 ? scene.center_x_px : (width - 1) / 2.0;
-  const double cy = (height - 1) / 2.0;
-  const double radius_px = scene.radius_px > 0 ? scene.radius_px : 0.4 * width;
-  const double tilt = scene.axis_angle_deg * kDeg;
-  const double alpha = scene.phase_angle_deg * kDeg;
-  const double m = scene.MaxSlope();
-  const double sigma_beta = 0.5 * scene.source_blur_deg * kDeg;
-  const Projection projection{scene.diameter_mm / 2.0, scene.camera_distance_mm};
-  const double radius_mm = scene.diameter_mm / 2.0;
-  const double mm_per_px = radius_mm / radius_px;  // along the axis, near it
-  const double pitch_mm = scene.wavelength_mm / 2.0;  // plain weave
-  const int top = scene.top_row_px >= 0 ? scene.top_row_px : -1000000;
-  const int bottom = scene.bottom_row_px >= 0 ? scene.bottom_row_px : 1000000;
-
-  // Weave phase per circumferential thread: half a period between
-  // neighbours, plus (unless regular) a slow random walk and a jitter.
-  std::mt19937 rng(scene.seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  const double axis_length_mm = (height + width) * mm_per_px * 2.0;
-  const int num_threads = static_cast<int>(std::ceil(axis_length_mm / pitch_mm)) + 4;
-  const int first_thread = -num_threads / 2;
-  std::vector<double> thread_phase_mm(num_threads);
-  double walk = 0.0;
-  for (int j = 0; j < num_threads; ++j) {
-    double phase = ((first_thread + j) & 1) ? 0.5 * scene.wavelength_mm : 0.0;
-    if (!scene.regular_weave) {
-      walk += scene.phase_drift * normal(rng);
-      phase += (walk + scene.phase_jitter * normal(rng)) * scene.wavelength_mm;
-    }
-    thread_phase_mm[j] = phase;
-  }
-
+  const Sampler sampler(scene);
+  const int channels = scene.IsColour() ? 3 : 1;
   Rendered out;
   Image& image = out.image;
   image.width = scene.width_px;
   image.height = scene.height_px;
-  image.channels = 1;
-  image.pixels.assign(static_cast<std::size_t>(image.width) * image.height, 0.0f);
-  const int sy_count = scene.samples_per_pixel;
-  const int sx_count = 4 * scene.samples_per_pixel;
-  const double inv_gauss = 1.0 / (std::sqrt(2.0 * M_PI) * sigma_beta);
-  for (int y = 0; y < image.height; ++y) {
-    for (int x = 0; x < image.width; ++x) {
-      double sum = 0.0;
-      for (int j = 0; j < sy_count; ++j) {
-        const double v = y - 0.5 + (j + 0.5) / sy_count;
-        for (int i = 0; i < sx_count; ++i) {
-          const double u = x - 0.5 + (i + 0.5) / sx_count;
-          const double axis_u = cx + (cy - v) * std::tan(tilt);
-          const double offset = (u - axis_u) * std::cos(tilt) / radius_px;
-          const double along_px = (cy - v) / std::cos(tilt) + (u - axis_u) * std::sin(tilt);
-          const int row_on_axis = static_cast<int>(std::lround(cy - along_px));
-          if (std::fabs(offset) >= 1.0 || row_on_axis < top || row_on_axis > bottom) {
-            sum += scene.background;
-            continue;
+  image.channels = channels;
+  image.pixels.assign(static_cast<std::size_t>(image.width) * image.height * channels, 0.0f);
+
+  // Supersampling: samples_per_pixel² everywhere, four times more along the
+  // arc where an in-plane glint may fall. Rows are shared among threads;
+  // nothing random happens here, so the result does not depend on them.
+  auto render_rows = [&](int y0, int y1) {
+    // Across the threads half as many samples suffice: the crest factor is
+    // integrated analytically over each sample's height.
+    const int sy_count = std::max(1, scene.samples_per_pixel / 2);
+    const double dv = 1.0 / sy_count;
+    for (int y = y0; y < y1; ++y) {
+      for (int x = 0; x < image.width; ++x) {
+        const int sx_count = scene.samples_per_pixel * (sampler.MayGlint(x, y) ? 4 : 1);
+        double sum[3] = {0.0, 0.0, 0.0};
+        for (int j = 0; j < sy_count; ++j) {
+          const double v = y - 0.5 + (j + 0.5) * dv;
+          for (int i = 0; i < sx_count; ++i) {
+            const double u = x - 0.5 + (i + 0.5) / sx_count;
+            const Terms t = sampler.Sample(u, v, dv);
+            for (int c = 0; c < channels; ++c) {
+              sum[c] += t.on_cylinder
+                            ? scene.ambient +
+                                  scene.exposure * (scene.specular_rgb[c] * t.specular +
+                                                    scene.axial_reflectance * scene.axial_rgb[c] * t.axial) +
+                                  scene.diffuse * scene.diffuse_rgb[c] * t.diffuse
+                            : scene.background;
+            }
           }
-          const double phi = AzimuthFromOffset(offset, projection);
-          const double view = ViewAngleRad(phi, projection);
-          const double mirror = 0.5 * (alpha + view);
-          const double cos_phi = std::max(std::cos(phi), kMinCosAzimuth);
-          double value = scene.ambient;
-          // Scatter of the axial threads and Lambertian term (DESIGN.md §3).
-          if (std::cos(phi - alpha) > 0) {
-            value += scene.scatter * std::cos(alpha / 2.0) / cos_phi +
-                     scene.diffuse * std::cos(phi - alpha);
-          }
-          const double z_mm = along_px * mm_per_px;
-          const double pitches = z_mm / pitch_mm;
-          const int thread = static_cast<int>(std::floor(pitches));
-          const double across = pitches - thread;
-          const bool in_gap = across < 0.5 * scene.gap_fraction ||
-                              across > 1.0 - 0.5 * scene.gap_fraction;
-          const int index = std::clamp(thread - first_thread, 0, num_threads - 1);
-          if (!in_gap) {
-            const double s_mm = radius_mm * phi + thread_phase_mm[index];
-            const double beta = -std::atan(ThreadSlope(scene.model, m, scene.wavelength_mm, s_mm));
-            const double eps = phi + beta - mirror;
-            // Mirror radiance of a Gaussian source, E0·G(2ε; 2σ_β), times
-            // the facet's projected width over the mean surface's
-            // (DESIGN.md §3): cos(φ+β) / (cos β · cos φ).
-            const double source = 0.5 * scene.exposure * inv_gauss *
-                                  std::exp(-0.5 * eps * eps / (sigma_beta * sigma_beta));
-            value += source * std::max(std::cos(phi + beta - view), 0.0) /
-                     (std::cos(beta) * cos_phi) / (1.0 - scene.gap_fraction);
-          }
-          sum += value;
+        }
+        for (int c = 0; c < channels; ++c) {
+          image.pixels[(static_cast<std::size_t>(y) * image.width + x) * channels + c] =
+              static_cast<float>(sum[c] / (sx_count * sy_count));
         }
       }
-      image.pixels[static_cast<std::size_t>(y) * image.width + x] =
-          static_cast<float>(sum / (sx_count * sy_count));
+    }
+  };
+  const int workers = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> threads;
+  for (int w = 0; w < workers; ++w) {
+    threads.emplace_back(render_rows, image.height * w / workers, image.height * (w + 1) / workers);
+  }
+  for (std::thread& t : threads) t.join();
+
+  // Lens: Gaussian PSF, then vignetting (quadratic fall-off to the corners).
+  if (scene.optics_blur_px > 0) {
+    cv::Mat mat(image.height, image.width, CV_32FC(channels), image.pixels.data());
+    cv::GaussianBlur(mat, mat, cv::Size(0, 0), scene.optics_blur_px, scene.optics_blur_px,
+                     cv::BORDER_REPLICATE);
+  }
+  if (scene.vignetting > 0) {
+    const double xc = (image.width - 1) / 2.0;
+    const double yc = (image.height - 1) / 2.0;
+    const double r2_max = xc * xc + yc * yc;
+    for (int y = 0; y < image.height; ++y) {
+      for (int x = 0; x < image.width; ++x) {
+        const double f = 1.0 - scene.vignetting * ((x - xc) * (x - xc) + (y - yc) * (y - yc)) / r2_max;
+        for (int c = 0; c < channels; ++c) {
+          image.pixels[(static_cast<std::size_t>(y) * image.width + x) * channels + c] *=
+              static_cast<float>(f);
+        }
+      }
     }
   }
 
   // Sensor: Poisson–Gaussian noise, saturation at full scale, quantisation.
+  std::mt19937 rng(scene.seed ^ 0x9e3779b9u);
+  std::normal_distribution<double> normal(0.0, 1.0);
   const double levels = scene.quantisation_bits > 0 ? std::ldexp(1.0, scene.quantisation_bits) - 1 : 0.0;
-  image.saturated.assign(image.pixels.size(), 0);
+  image.saturated.assign(static_cast<std::size_t>(image.width) * image.height, 0);
   for (std::size_t i = 0; i < image.pixels.size(); ++i) {
     double v = image.pixels[i];
     if (scene.photons_full_scale > 0) {
@@ -181,75 +339,107 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
     v += scene.read_noise * normal(rng);
     v = std::clamp(v, 0.0, 1.0);
     if (levels > 0) v = std::round(v * levels) / levels;
-    image.saturated[i] = v >= 1.0;
+    if (v >= 1.0) image.saturated[i / channels] = 1;
     image.pixels[i] = static_cast<float>(v);
   }
 
   RenderTruth& truth = out.truth;
+  const double m = sampler.max_slope();
   truth.max_slope = m;
   truth.peak_spacing_deg = PeakSpacingRad(m) / kDeg;
-  truth.mirror_azimuth_deg = scene.phase_angle_deg / 2.0;
-  truth.center_x_px = cx;
-  truth.radius_px = radius_px;
+  truth.mirror_azimuth_deg =
+      MirrorAzimuth(scene.phase_angle_deg * kDeg,
+                    Projection{scene.diameter_mm / 2.0, scene.camera_distance_mm}) / kDeg;
+  truth.center_x_px = sampler.cx();
+  truth.radius_px = sampler.radius_px();
   truth.axis_angle_deg = scene.axis_angle_deg;
-  truth.px_per_period = scene.wavelength_mm / mm_per_px;
+  truth.px_per_period = scene.wavelength_mm / sampler.mm_per_px();
   // A split shows when the peaks stand further apart than about twice the
-  // blur's full width at half maximum in azimuth (2.355·σ_β each).
+  // blur's full width at half maximum in azimuth (2.355·σ_β each, the lens
+  // blur converted to azimuth at the centre).
+  const double lens_rad = scene.optics_blur_px / sampler.radius_px();
+  const double sigma = std::hypot(sampler.sigma_beta(), lens_rad);
   truth.split_resolvable = scene.model != ProfileModel::kSmooth &&
-                           PeakSpacingRad(m) > 2.0 * 2.355 * sigma_beta;
+                           PeakSpacingRad(m) > 2.0 * 2.355 * sigma;
   truth.period_resolvable = truth.px_per_period >= 4.0;
   return out;
 }
 
 std::string TruthJson(const RenderScene& s, const RenderTruth& t,
                       const std::string& image_file) {
-  auto b = [](bool v) { return v ? "true" : "false"; };
-  return absl::StrFormat(
-      "{\n"
-      "  \"image\": \"%s\",\n"
-      "  \"acquisition\": {\n"
-      "    \"phaseAngleDeg\": %.6g,\n"
-      "    \"cylinderDiameterMm\": %.6g,\n"
-      "    \"cameraDistanceMm\": %.6g\n"
-      "  },\n"
-      "  \"truth\": {\n"
-      "    \"model\": \"%s\",\n"
-      "    \"wavelengthMm\": %.6g,\n"
-      "    \"amplitudeMm\": %.6g,\n"
-      "    \"maxSlope\": %.6g,\n"
-      "    \"peakSpacingDeg\": %.6g,\n"
-      "    \"mirrorAzimuthDeg\": %.6g,\n"
-      "    \"centerXPx\": %.6g,\n"
-      "    \"radiusPx\": %.6g,\n"
-      "    \"axisAngleDeg\": %.6g,\n"
-      "    \"pxPerPeriod\": %.6g,\n"
-      "    \"splitResolvable\": %s,\n"
-      "    \"periodResolvable\": %s\n"
-      "  },\n"
-      "  \"scene\": {\n"
-      "    \"widthPx\": %d, \"heightPx\": %d,\n"
-      "    \"model\": \"%s\", \"wavelengthMm\": %.6g, \"amplitudeMm\": %.6g,\n"
-      "    \"diameterMm\": %.6g, \"cameraDistanceMm\": %.6g, \"phaseAngleDeg\": %.6g,\n"
-      "    \"centerXPx\": %.6g, \"radiusPx\": %.6g, \"axisAngleDeg\": %.6g,\n"
-      "    \"topRowPx\": %d, \"bottomRowPx\": %d,\n"
-      "    \"sourceBlurDeg\": %.6g, \"exposure\": %.6g, \"scatter\": %.6g,\n"
-      "    \"diffuse\": %.6g, \"ambient\": %.6g, \"background\": %.6g,\n"
-      "    \"gapFraction\": %.6g, \"regularWeave\": %s, \"phaseJitter\": %.6g,\n"
-      "    \"phaseDrift\": %.6g, \"photonsFullScale\": %.6g, \"readNoise\": %.6g,\n"
-      "    \"quantisationBits\": %d, \"samplesPerPixel\": %d, \"seed\": %u\n"
-      "  }\n"
-      "}\n",
-      image_file, s.phase_angle_deg, s.diameter_mm, s.camera_distance_mm,
-      ProfileModelName(s.model), s.wavelength_mm, s.amplitude_mm,
-      t.max_slope, t.peak_spacing_deg, t.mirror_azimuth_deg, t.center_x_px,
-      t.radius_px, t.axis_angle_deg, t.px_per_period, b(t.split_resolvable),
-      b(t.period_resolvable), s.width_px, s.height_px, ProfileModelName(s.model),
-      s.wavelength_mm, s.amplitude_mm, s.diameter_mm, s.camera_distance_mm,
-      s.phase_angle_deg, t.center_x_px, t.radius_px, s.axis_angle_deg,
-      s.top_row_px, s.bottom_row_px, s.source_blur_deg, s.exposure, s.scatter,
-      s.diffuse, s.ambient, s.background, s.gap_fraction, b(s.regular_weave),
-      s.phase_jitter, s.phase_drift, s.photons_full_scale, s.read_noise,
-      s.quantisation_bits, s.samples_per_pixel, s.seed);
+  auto num = [](double v) { return absl::StrFormat("%.9g", v); };
+  auto boolean = [](bool v) { return std::string(v ? "true" : "false"); };
+  auto rgb = [&](const double* v) {
+    return absl::StrCat("[", num(v[0]), ", ", num(v[1]), ", ", num(v[2]), "]");
+  };
+  auto object = [](const std::vector<std::pair<std::string, std::string>>& fields) {
+    std::string out = "{\n";
+    for (std::size_t i = 0; i < fields.size(); ++i) {
+      absl::StrAppend(&out, "    \"", fields[i].first, "\": ", fields[i].second,
+                      i + 1 < fields.size() ? ",\n" : "\n");
+    }
+    return out + "  }";
+  };
+  const std::string model = absl::StrCat("\"", ProfileModelName(s.model), "\"");
+  const std::string acquisition = object({
+      {"phaseAngleDeg", num(s.phase_angle_deg)},
+      {"cylinderDiameterMm", num(s.diameter_mm)},
+      {"cameraDistanceMm", num(s.camera_distance_mm)},
+  });
+  const std::string truth = object({
+      {"model", model},
+      {"wavelengthMm", num(s.wavelength_mm)},
+      {"amplitudeMm", num(s.amplitude_mm)},
+      {"maxSlope", num(t.max_slope)},
+      {"peakSpacingDeg", num(t.peak_spacing_deg)},
+      {"mirrorAzimuthDeg", num(t.mirror_azimuth_deg)},
+      {"centerXPx", num(t.center_x_px)},
+      {"radiusPx", num(t.radius_px)},
+      {"axisAngleDeg", num(t.axis_angle_deg)},
+      {"pxPerPeriod", num(t.px_per_period)},
+      {"splitResolvable", boolean(t.split_resolvable)},
+      {"periodResolvable", boolean(t.period_resolvable)},
+  });
+  // Keys are the camelCase of the fields, as `weavefit render --scene` reads them.
+  const std::string scene = object({
+      {"widthPx", num(s.width_px)},
+      {"heightPx", num(s.height_px)},
+      {"model", model},
+      {"wavelengthMm", num(s.wavelength_mm)},
+      {"amplitudeMm", num(s.amplitude_mm)},
+      {"diameterMm", num(s.diameter_mm)},
+      {"cameraDistanceMm", num(s.camera_distance_mm)},
+      {"phaseAngleDeg", num(s.phase_angle_deg)},
+      {"centerXPx", num(s.center_x_px)},
+      {"radiusPx", num(s.radius_px)},
+      {"axisAngleDeg", num(s.axis_angle_deg)},
+      {"topRowPx", num(s.top_row_px)},
+      {"bottomRowPx", num(s.bottom_row_px)},
+      {"sourceBlurDeg", num(s.source_blur_deg)},
+      {"exposure", num(s.exposure)},
+      {"axialReflectance", num(s.axial_reflectance)},
+      {"diffuse", num(s.diffuse)},
+      {"ambient", num(s.ambient)},
+      {"background", num(s.background)},
+      {"gapFraction", num(s.gap_fraction)},
+      {"crestTiltDeg", num(s.crest_tilt_deg)},
+      {"phaseStep", num(s.phase_step)},
+      {"regularWeave", boolean(s.regular_weave)},
+      {"phaseJitter", num(s.phase_jitter)},
+      {"phaseDrift", num(s.phase_drift)},
+      {"opticsBlurPx", num(s.optics_blur_px)},
+      {"vignetting", num(s.vignetting)},
+      {"specularRgb", rgb(s.specular_rgb)},
+      {"axialRgb", rgb(s.axial_rgb)},
+      {"diffuseRgb", rgb(s.diffuse_rgb)},
+      {"photonsFullScale", num(s.photons_full_scale)},
+      {"readNoise", num(s.read_noise)},
+      {"quantisationBits", num(s.quantisation_bits)},
+      {"samplesPerPixel", num(s.samples_per_pixel)},
+      {"seed", num(s.seed)},
+  });
+  return absl::StrCat("{\n  \"image\": \"", image_file, "\",\n  \"acquisition\": ", acquisition,
+                      ",\n  \"truth\": ", truth, ",\n  \"scene\": ", scene, "\n}\n");
 }
 
 }  // namespace weavefit

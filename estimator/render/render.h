@@ -30,15 +30,29 @@ struct RenderScene {
   int top_row_px = -1;              // first row of the cylinder; <0 = above the frame
   int bottom_row_px = -1;           // last row; <0 = below the frame
   double source_blur_deg = 0.6;     // angular σ of the source (blur in β is half)
-  double exposure = 0.02;           // E0 in full-scale units (scales the lobe)
-  double scatter = 0.01;            // grazing scatter level of the axial threads
+  double exposure = 0.004;          // E0 in full-scale units (scales the lobe)
+  // Reflectance of the threads along the axis relative to the circumferential
+  // ones. They are small round specular cylinders: their glints add up to the
+  // grazing scatter lobe ∝ cos(α/2)/cos φ (DESIGN.md §3).
+  double axial_reflectance = 1.0;
   double diffuse = 0.0;             // Lambertian level
   double ambient = 0.03;            // uniform level of the cylinder body
   double background = 0.01;         // level outside the cylinder
-  double gap_fraction = 0.15;       // share of each thread pitch left to axial threads
+  double gap_fraction = 0.15;       // share of each thread pitch showing axial threads
+  // Largest out-of-plane tilt of a circumferential thread's surface at its
+  // edges (0 = flat ribbons). A rounded thread glints only along its crest.
+  double crest_tilt_deg = 6.0;
+  double phase_step = 0.5;          // weave phase between neighbouring threads, periods
   bool regular_weave = false;       // no drift or jitter of the weave phase
   double phase_jitter = 0.04;       // per-thread random phase shift, in periods
   double phase_drift = 0.02;        // random-walk step of the phase, in periods
+  double optics_blur_px = 0.0;      // Gaussian σ of the lens PSF, px
+  double vignetting = 0.0;          // relative fall-off at the image corners
+  // Colour: per-channel factors (R, G, B) of the circumferential threads,
+  // the axial threads and the diffuse term; all 1 renders one channel.
+  double specular_rgb[3] = {1.0, 1.0, 1.0};
+  double axial_rgb[3] = {1.0, 1.0, 1.0};
+  double diffuse_rgb[3] = {1.0, 1.0, 1.0};
   double photons_full_scale = 20000.0;  // Poisson gain; 0 = no shot noise
   double read_noise = 0.002;        // Gaussian σ in full-scale units
   int quantisation_bits = 12;       // sensor ADC; 0 = none
@@ -47,6 +61,7 @@ struct RenderScene {
 
   absl::Status Validate() const;
   double MaxSlope() const;
+  bool IsColour() const;
 };
 
 // The derived truth of a scene (library units except where named).
