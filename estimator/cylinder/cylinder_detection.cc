@@ -166,11 +166,24 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       p /= (y1 - y0);
       peak = std::max(peak, p);
     }
+    // Limbs are found on the band profile smoothed over kBox columns, so
+    // that a dim limb still stands out of the noise; the sub-pixel position
+    // comes from the unsmoothed profile below.
+    constexpr int kBox = 5;
+    std::vector<double> smoothed(region.width, 0.0);
+    for (int x = 0; x < region.width; ++x) {
+      int count = 0;
+      for (int k = std::max(0, x - kBox / 2); k <= std::min(region.width - 1, x + kBox / 2); ++k) {
+        smoothed[x] += profile[k];
+        ++count;
+      }
+      smoothed[x] /= count;
+    }
     const double threshold =
-        background + std::max(options.edge_sigmas * noise / std::sqrt(y1 - y0),
+        background + std::max(options.edge_sigmas * noise / std::sqrt((y1 - y0) * kBox),
                               0.005 * (peak - background));
     auto above = [&](int x) {
-      return x >= 0 && x < region.width && profile[x] > threshold;
+      return x >= 0 && x < region.width && smoothed[x] > threshold;
     };
     int left = -1;
     for (int x = side; x + 2 < region.width - side; ++x) {
@@ -195,26 +208,26 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     // unlit side only a few ambient-lit pixels separate the limb from the
     // terminator, and a level taken from the lit surface beyond it would
     // not be crossed within the search window at all.
+    // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
+    // step's half-level crossing in place) crosses half-way between the
+    // background and the surface level just inside the limb. The first
+    // column above the threshold holds about one surface pixel of its box,
+    // so the limb is ~1.5 columns further in and the box 4 columns in covers
+    // surface only; the unlit limb has only a few dim columns before the
+    // terminator, so nothing further inside may set the level.
     auto inside_level = [&](int from, int step) {
-      std::vector<double> v;
-      for (int k = 2; k <= 6; ++k) {
-        const int x = from + step * k;
-        if (x >= 0 && x < region.width) v.push_back(profile[x]);
-      }
-      return Median(v);
+      const int x = std::clamp(from + 4 * step, 0, region.width - 1);
+      return smoothed[x];
     };
-    const double left_half =
-        0.5 * (background + std::min(inside_level(left, +1), profile[left + 1]));
-    const double right_half =
-        0.5 * (background + std::min(inside_level(right, -1), profile[right - 1]));
+    const double left_half = 0.5 * (background + inside_level(left, +1));
+    const double right_half = 0.5 * (background + inside_level(right, -1));
     const double row = 0.5 * (y0 + y1 - 1);
     left_points.push_back(
-        {row, region.x + Crossing(profile, std::max(left - 3, 0),
-                                  std::min(left + 3, region.width - 1),
-                                  left_half)});
+        {row, region.x + Crossing(smoothed, std::max(left - 3, 0),
+                                  std::min(left + 4, region.width - 1), left_half)});
     right_points.push_back(
-        {row, region.x + Crossing(profile, std::min(right + 3, region.width - 1),
-                                  std::max(right - 3, 0), right_half)});
+        {row, region.x + Crossing(smoothed, std::min(right + 3, region.width - 1),
+                                  std::max(right - 4, 0), right_half)});
   }
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -250,8 +263,26 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     if (last < 0 || b > last) last = b;
   }
   if (first < 0) return absl::InvalidArgumentError("no cylinder found: limbs inconsistent");
-  g.top_row = band_first[first];
-  g.bottom_row = band_last[last];
+  // Refine the ends row by row: a row belongs to the cylinder when the
+  // surface just inside both limbs (offsets 0.75–0.95) stands above the
+  // background; bands that straddle an end would otherwise count whole.
+  auto row_on_cylinder = [&](int y) {
+    double sum = 0.0;
+    int n = 0;
+    for (int x = region.x; x < region.x + region.width; ++x) {
+      const double o = std::fabs(g.NormalisedOffset(x, y));
+      if (o < 0.75 || o > 0.95) continue;
+      sum += luminance.At(x, y);
+      ++n;
+    }
+    return n > 0 && sum / n - background > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
+  };
+  int top = band_first[first];
+  while (top < band_last[first] && !(row_on_cylinder(top) && row_on_cylinder(top + 1))) ++top;
+  int bottom = band_last[last];
+  while (bottom > band_first[last] && !(row_on_cylinder(bottom) && row_on_cylinder(bottom - 1))) --bottom;
+  g.top_row = top;
+  g.bottom_row = std::max(bottom, top);
   return g;
 }
 

@@ -269,26 +269,13 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // The lobe is found on a heavily smoothed profile; the split peaks are the
   // outermost significant maxima of the lightly smoothed profile inside it
   // (the caustic glints bound the lobe).
-  const double light_bins = options.smoothing_deg * kDeg / bin;
-  const std::vector<double> s = Smooth(filled, light_bins);
   const std::vector<double> heavy = Smooth(filled, options.lobe_smoothing_deg * kDeg / bin);
-  // Smoothing averages about 2·sqrt(π)·σ bins: the standard errors shrink.
-  const double gain = light_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * light_bins) : 1.0;
-  // Significance is judged against pixel noise (the background's, per
-  // bin), not against the spread over rows: that spread is mostly the weave's
-  // own structure, which is signal here.
-  std::vector<double> se(n);
-  for (int i = 0; i < n; ++i) {
-    se[i] = profile.count[i] <= 0.0
-                ? 1e30  // no data: never significant
-                : gain * std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
-  }
   // Baseline: a straight line between the medians of the window's two ends,
   // which takes out the background and, to first order, the slow rise of
   // the grazing scatter toward a limb.
   const int edge = std::max(3, (hi - lo) / 10);
-  const double base_lo = MedianOf(std::vector<double>(s.begin() + lo, s.begin() + lo + edge));
-  const double base_hi = MedianOf(std::vector<double>(s.begin() + hi - edge + 1, s.begin() + hi + 1));
+  const double base_lo = MedianOf(std::vector<double>(heavy.begin() + lo, heavy.begin() + lo + edge));
+  const double base_hi = MedianOf(std::vector<double>(heavy.begin() + hi - edge + 1, heavy.begin() + hi + 1));
   const double at_lo = lo + 0.5 * (edge - 1);
   const double at_hi = hi - 0.5 * (edge - 1);
   std::vector<double> baseline(n);
@@ -315,13 +302,36 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   const int margin = static_cast<int>(std::ceil(2.0 * options.lobe_smoothing_deg * kDeg / bin)) + 2;
   lobe_lo = std::max(lo, lobe_lo - margin);
   lobe_hi = std::min(hi, lobe_hi + margin);
+
+  // The finest smoothing at which the lobe shows significant maxima: a
+  // noisy photograph needs more than a clean one. Significance is judged
+  // against pixel noise (the background's, per bin), not against the spread
+  // over rows: that spread is mostly the weave's own structure, signal here.
+  double light_deg = options.smoothing_deg;
+  double light_bins = 0.0;
+  std::vector<double> s;
+  std::vector<double> se(n);
   std::vector<double> excess(n);
-  for (int i = 0; i < n; ++i) excess[i] = s[i] - baseline[i];
-  const std::vector<int> maxima = SignificantMaxima(excess, se, lobe_lo, lobe_hi, 0.0, options);
+  std::vector<int> maxima;
+  for (;;) {
+    light_bins = light_deg * kDeg / bin;
+    s = Smooth(filled, light_bins);
+    // Smoothing averages about 2·sqrt(π)·σ bins: the standard errors shrink.
+    const double gain = light_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * light_bins) : 1.0;
+    for (int i = 0; i < n; ++i) {
+      se[i] = profile.count[i] <= 0.0
+                  ? 1e30  // no data: never significant
+                  : gain * std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
+      excess[i] = s[i] - baseline[i];
+    }
+    maxima = SignificantMaxima(excess, se, lobe_lo, lobe_hi, 0.0, options);
+    if (!maxima.empty() || light_deg >= options.lobe_smoothing_deg) break;
+    light_deg = std::min(2.0 * light_deg, options.lobe_smoothing_deg);
+  }
   if (maxima.empty()) {
     return absl::InvalidArgumentError(
-        "no specular peak near half the phase angle: check the phase angle "
-        "and that the cylinder is lit");
+        "no specular peak stands out of the noise near half the phase angle: "
+        "check the phase angle, the exposure and that the cylinder is lit");
   }
   const int left_index = *std::min_element(maxima.begin(), maxima.end());
   const int right_index = *std::max_element(maxima.begin(), maxima.end());
@@ -330,7 +340,11 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   const double sigma_bins = light_bins;
 
   PeakPickingResult result;
-  result.smoothing_rad = options.smoothing_deg * kDeg;
+  result.smoothing_rad = light_deg * kDeg;
+  if (light_deg > options.smoothing_deg) {
+    result.warnings.push_back(absl::StrFormat(
+        "noisy profile: peaks located after smoothing by %.2f deg", light_deg));
+  }
   if (clipped_bins > 0) {
     result.warnings.push_back(absl::StrFormat(
         "%d azimuth bins are more than 5%% saturated: their level was "
@@ -372,7 +386,14 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     }
     return Smooth(t, sigma_bins);
   };
-  const double quantisation = bin / std::sqrt(12.0);
+  // Position quantisation: a bin, or a pixel's footprint in azimuth where
+  // that is wider (toward the limbs), as a uniform error.
+  auto quantisation_at = [&](double phi) {
+    const double footprint = profile.radius_px > 0
+                                 ? 1.0 / (profile.radius_px * std::max(std::cos(phi), 0.05))
+                                 : 0.0;
+    return std::max(bin, footprint) / std::sqrt(12.0);
+  };
 
   if (split) {
     // Teeth: every prominent maximum of the lobe, however low.
@@ -476,11 +497,12 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
             static_cast<int>(teeth.size()), gap / kDeg));
       }
     }
-    result.spacing_stderr_rad = std::sqrt(std::pow(Stddev(spacings), 2) +
-                                          2.0 * quantisation * quantisation +
+    const double q_left = quantisation_at(result.left_peak_rad);
+    const double q_right = quantisation_at(result.right_peak_rad);
+    const double q2 = q_left * q_left + q_right * q_right;
+    result.spacing_stderr_rad = std::sqrt(std::pow(Stddev(spacings), 2) + q2 +
                                           2.0 * comb_rad * comb_rad);
-    result.mirror_stderr_rad = std::sqrt(std::pow(Stddev(mirrors), 2) +
-                                         0.5 * quantisation * quantisation +
+    result.mirror_stderr_rad = std::sqrt(std::pow(Stddev(mirrors), 2) + 0.25 * q2 +
                                          0.5 * comb_rad * comb_rad);
     result.max_slope = std::tan(0.5 * result.spacing_rad);
     const double sec = 1.0 / std::cos(0.5 * result.spacing_rad);
@@ -504,7 +526,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     for (int k = 0; k < options.bootstrap_samples; ++k) {
       mirrors.push_back(azimuth_of(NearestPeak(resample(), peak, 3.0)));
     }
-    result.mirror_stderr_rad = std::hypot(Stddev(mirrors), quantisation);
+    result.mirror_stderr_rad = std::hypot(Stddev(mirrors), quantisation_at(result.mirror_rad));
     result.warnings.push_back(absl::StrFormat(
         "a single specular peak (FWHM %.2f deg): any split narrower than "
         "about that is not resolved, so peak spacing and max slope are "

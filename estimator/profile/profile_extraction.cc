@@ -43,6 +43,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
 
   Profile profile;
   profile.bin_width_rad = bin;
+  profile.radius_px = geometry.radius_px;
   profile.num_blocks = options.num_blocks;
   profile.azimuth_rad.resize(num_bins);
   for (int i = 0; i < num_bins; ++i) {

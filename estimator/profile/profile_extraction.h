@@ -23,6 +23,10 @@ struct Profile {
   std::vector<double> count;        // unmasked pixels in the bin (fractional)
   std::vector<double> saturated;    // saturated (left out) pixels in the bin
   double bin_width_rad = 0.0;
+  // Radius of the cylinder in pixels: a pixel spans about
+  // 1/(radius_px·cos φ) rad of azimuth (orthographic), wider than a bin
+  // near the limb.
+  double radius_px = 0.0;
   // Level and noise (robust sigma of one pixel) outside the cylinder.
   double background = 0.0;
   double background_noise = 0.0;
