@@ -143,7 +143,11 @@ class Sampler {
       // ψ over (−90°, 90°) around φ with density cos ψ / 2 per mean arc.
       // Its glint (at ψ* = mirror − φ) is far narrower than a pixel, so it
       // is integrated analytically: E0/2 · cos h · p(ψ*) / (cos ψ* · cos φ).
-      if (std::fabs(mirror - phi) < M_PI / 2.0) t.axial = 0.25 * cos_h / cos_phi;
+      // Only where the surface is lit: a thread lying in the cylinder's own
+      // shadow (light below its local horizon, φ < α − 90°) gets none.
+      if (t.diffuse > 0.0 && std::fabs(mirror - phi) < M_PI / 2.0) {
+        t.axial = 0.25 * cos_h / cos_phi;
+      }
       return t;
     }
     const int index = std::clamp(thread - first_thread_, 0, num_threads_ - 1);
