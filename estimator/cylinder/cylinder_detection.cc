@@ -148,6 +148,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   std::vector<int> band_first(bands);
   std::vector<int> band_last(bands);
   std::vector<double> profile(region.width);
+  std::vector<double> mean_profile(region.width, 0.0);  // all rows
   for (int b = 0; b < bands; ++b) {
     const int y0 = region.y + static_cast<int>(
                                   static_cast<long long>(b) * region.height / bands);
@@ -161,6 +162,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
         profile[x] += luminance.At(region.x + x, y);
       }
     }
+    for (int x = 0; x < region.width; ++x) mean_profile[x] += profile[x];
     double peak = background;
     for (double& p : profile) {
       p /= (y1 - y0);
@@ -179,11 +181,13 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       }
       smoothed[x] /= count;
     }
+    // A limb is a step away from the background level, up (a lit or grey
+    // body on black) or down (a dark cloth on a brighter background).
     const double threshold =
-        background + std::max(options.edge_sigmas * noise / std::sqrt((y1 - y0) * kBox),
-                              0.005 * (peak - background));
+        std::max(options.edge_sigmas * noise / std::sqrt((y1 - y0) * kBox),
+                 0.005 * (peak - background));
     auto above = [&](int x) {
-      return x >= 0 && x < region.width && smoothed[x] > threshold;
+      return x >= 0 && x < region.width && std::fabs(smoothed[x] - background) > threshold;
     };
     int left = -1;
     for (int x = side; x + 2 < region.width - side; ++x) {
@@ -202,12 +206,6 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     if (left < 0 || right < 0 || right - left < 2 * options.min_radius_px) {
       continue;
     }
-    // Sub-pixel limb: where the profile crosses half-way between the
-    // background and the surface level just inside the limb. That level is
-    // capped by the pixel next to the first one above threshold: on the
-    // unlit side only a few ambient-lit pixels separate the limb from the
-    // terminator, and a level taken from the lit surface beyond it would
-    // not be crossed within the search window at all.
     // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
     // step's half-level crossing in place) crosses half-way between the
     // background and the surface level just inside the limb. The first
@@ -232,7 +230,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
         "no cylinder found: only ", left_points.size(), " of ", bands,
-        " row bands show two limbs above the background (level ", background,
+        " row bands show two limbs against the background (level ", background,
         ", noise ", noise, ")"));
   }
 
@@ -249,6 +247,27 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   g.right_observed = true;
   if (g.radius_px < options.min_radius_px) {
     return absl::InvalidArgumentError("no cylinder found: limbs too close together");
+  }
+  for (double& v : mean_profile) v /= region.height;
+  // The surface between the two edges must be continuous: edges found on
+  // isolated glints (a body as dark as the background, no lit terminator)
+  // would place a cylinder that is not there.
+  {
+    const double mean_threshold = options.edge_sigmas * noise / std::sqrt(static_cast<double>(region.height));
+    int on = 0;
+    int total = 0;
+    for (int x = static_cast<int>(std::ceil(left.at_center)) + 2;
+         x <= static_cast<int>(std::floor(right.at_center)) - 2; ++x) {
+      if (x < region.x || x >= region.x + region.width) continue;
+      ++total;
+      on += std::fabs(mean_profile[x - region.x] - background) > mean_threshold;
+    }
+    if (total == 0 || on < 0.7 * total) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "no cylinder found: only ", on, " of ", total, " columns between the two "
+          "edges differ from the background; a body as dark as the background "
+          "shows only its glints (light it, or darken the background)"));
+    }
   }
   // Usable rows: from the first to the last band whose limbs agree with the
   // fitted lines (ends of the cylinder and the mount are excluded).
@@ -275,7 +294,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       sum += luminance.At(x, y);
       ++n;
     }
-    return n > 0 && sum / n - background > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
+    return n > 0 && std::fabs(sum / n - background) > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
   };
   int top = band_first[first];
   while (top < band_last[first] && !(row_on_cylinder(top) && row_on_cylinder(top + 1))) ++top;

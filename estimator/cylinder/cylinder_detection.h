@@ -24,6 +24,8 @@ struct CylinderGeometry {
   // Usable surface rows, inclusive.
   int top_row = 0;
   int bottom_row = 0;
+  // False when that limb was inferred (lost in darkness), not seen. This
+  // version does not infer limbs yet: both are always observed.
   bool left_observed = false;
   bool right_observed = false;
   // RMS distance of the per-band limb points from the fitted lines.

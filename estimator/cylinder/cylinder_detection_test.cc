@@ -107,13 +107,6 @@ TEST(CylinderDetectionTest, LargerImageNearTheTerminator) {
 // background (ambient light, black cloth) ... detect limbs by edges, not by
 // brightness."
 TEST(CylinderDetectionTest, BodyDarkerThanTheBackground) {
-  GTEST_SKIP() << "Known library limitation: DetectCylinder thresholds band "
-                  "profiles ABOVE the background, so a body darker than the "
-                  "background is located by its lit lobe only. On this scene "
-                  "it returns OK with center ≈ 271.5 px (truth 190.3) and "
-                  "radius ≈ 71.9 px (truth 152), limb_rms ≈ 9.3 px, instead "
-                  "of the truth or an error. Needs edge-based limb detection "
-                  "(a design change, not a small fix).";
   RenderScene scene = SmallScene();
   scene.ambient = 0.002;
   scene.background = 0.05;

@@ -40,6 +40,7 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   estimate.cylinder = *cylinder;
   clock.Lap("detect");
 
+
   const Projection projection = acquisition.GetProjection();
   absl::StatusOr<Profile> profile =
       ExtractProfile(luminance, *cylinder, projection, options.profile);
