@@ -12,6 +12,7 @@
 #include <ceres/sized_cost_function.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <memory>
@@ -168,6 +169,77 @@ TEST(RadianceTest, SawtoothDensityPeaksAtTheFacetTilts) {
   // Half the facets at each tilt: the peak is half a Gaussian's maximum.
   EXPECT_NEAR(density(std::atan(m)), 0.5 * GaussianDensity(0.0, blur), 1e-9);
   EXPECT_LT(density(0.0), 1e-100);
+}
+
+// The maximiser of f over [lo, hi]: a grid of step `coarse`, then a grid of
+// step `fine` over the two coarse steps around its best node.
+double GridArgMax(const std::function<double(double)>& f, double lo, double hi,
+                  double coarse, double fine) {
+  double best = lo;
+  double best_value = f(lo);
+  const int n = static_cast<int>(std::ceil((hi - lo) / coarse));
+  for (int i = 1; i <= n; ++i) {
+    const double x = std::min(hi, lo + i * coarse);
+    const double v = f(x);
+    if (v > best_value) {
+      best_value = v;
+      best = x;
+    }
+  }
+  const double center = best;
+  const int m = static_cast<int>(std::ceil(coarse / fine));
+  for (int i = -m; i <= m; ++i) {
+    const double x = std::clamp(center + i * fine, lo, hi);
+    const double v = f(x);
+    if (v > best_value) {
+      best_value = v;
+      best = x;
+    }
+  }
+  return best;
+}
+
+// The paper's split peaks in the radiance itself, not only in the tilt
+// density: with a small blur (0.05° in β) the two maxima of the specular
+// radiance across the cylinder sit at α/2 ± arctan m (orthographic, so the
+// mirror is at α/2), with the light in front and well off to the side, where
+// the 1/(cos φ · cos β*) foreshortening is asymmetric. The coarse copper
+// gauze as a sinusoid (m = 0.2356) and as a sawtooth (m = 0.15). Each side of
+// the mirror is searched on its own grid out to 2° beyond the caustic: steps
+// of 0.1° (two blur widths: inside the caustic the lobe rises monotonically
+// toward it and outside it falls within a few σ, so the best node is within
+// one step of the peak), then 0.002°.
+TEST(RadianceTest, CausticPeaksOfBlurredSpecularRadianceAtHalfAlphaPlusMinusArctanM) {
+  const double blur = 0.05 * kDeg;
+  const struct {
+    ProfileModel model;
+    double max_slope;
+  } cases[] = {{ProfileModel::kSinusoid, SinusoidMaxSlope(0.108, 2.88)},
+               {ProfileModel::kSawtooth, SawtoothMaxSlope(0.108, 2.88)}};
+  for (const auto& c : cases) {
+    for (double alpha_deg : {0.0, 30.0, 60.0}) {
+      RadianceParams<double> p;
+      p.model = c.model;
+      p.max_slope = c.max_slope;
+      p.mirror_rad = alpha_deg / 2.0 * kDeg;
+      p.blur_rad = blur;
+      p.phase_angle_rad = alpha_deg * kDeg;
+      const auto radiance = [&](double phi) { return SpecularRadiance(p, phi); };
+      const double half_split = std::atan(c.max_slope);
+      const double reach = half_split + 2.0 * kDeg;
+      const double left = GridArgMax(radiance, p.mirror_rad - reach, p.mirror_rad,
+                                     0.1 * kDeg, 0.002 * kDeg);
+      const double right = GridArgMax(radiance, p.mirror_rad, p.mirror_rad + reach,
+                                      0.1 * kDeg, 0.002 * kDeg);
+      EXPECT_NEAR(left / kDeg, (p.mirror_rad - half_split) / kDeg, 0.2)
+          << ProfileModelName(c.model) << " alpha " << alpha_deg;
+      EXPECT_NEAR(right / kDeg, (p.mirror_rad + half_split) / kDeg, 0.2)
+          << ProfileModelName(c.model) << " alpha " << alpha_deg;
+      // They are the lobe's maxima, not its edges: the mirror itself is lower.
+      EXPECT_GT(radiance(left), radiance(p.mirror_rad));
+      EXPECT_GT(radiance(right), radiance(p.mirror_rad));
+    }
+  }
 }
 
 // Evaluates every density and the full radiance with Jets, with the

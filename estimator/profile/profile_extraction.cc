@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -54,6 +55,38 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   profile.saturated.assign(num_bins, 0.0);
 
   const int rows = geometry.bottom_row - geometry.top_row + 1;
+  // φ as a function of the normalised offset, tabulated at 1/16 px and
+  // interpolated linearly for |offset| < 0.9 (error below 1e-8 rad there):
+  // one table instead of an arcsine per pixel edge. Toward the limb the
+  // mapping's slope diverges, so the few pixels there get the exact value.
+  constexpr double kTabulated = 0.9;
+  const double step = 1.0 / (16.0 * geometry.radius_px);
+  const int table_half = static_cast<int>(std::ceil(kTabulated / step)) + 1;
+  std::vector<double> table(2 * table_half + 1);
+  for (int i = 0; i <= 2 * table_half; ++i) {
+    table[i] = AzimuthFromOffset(std::clamp((i - table_half) * step, -1.0, 1.0), projection);
+  }
+  auto azimuth_of = [&](double offset) {
+    if (!(std::fabs(offset) < kTabulated)) {
+      return AzimuthFromOffset(std::clamp(offset, -1.0, 1.0), projection);
+    }
+    const double t = offset / step + table_half;
+    const int i = static_cast<int>(t);
+    return table[i] + (t - i) * (table[i + 1] - table[i]);
+  };
+  // A pixel is kept when its centre lies inside the azimuth limit: compared
+  // in offsets, where the mapping is monotonic and exact.
+  const double limit_offset = OffsetFromAzimuth(limb, projection);
+  const double cos_tilt = std::cos(geometry.axis_angle_rad);
+  const double reach = 1.0 / cos_tilt;
+  struct Footprints {
+    std::vector<int> start;  // per column offset: first entry in bins/weights
+    std::vector<int> bins;
+    std::vector<double> weights;
+  };
+  constexpr int kSubpixel = 32;
+  std::vector<Footprints> footprints(kSubpixel);
+  const int half_span = static_cast<int>(std::ceil(geometry.radius_px * reach)) + 2;
   std::vector<double> outside;
   for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) {
     const int block = static_cast<int>(
@@ -61,44 +94,69 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     double* sums = &profile.block_sum[static_cast<std::size_t>(block) * num_bins];
     double* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
     const double axis = geometry.AxisColumn(y);
-    const double reach = 1.0 / std::cos(geometry.axis_angle_rad);
-    const int x0 = std::max(0, static_cast<int>(std::floor(axis - geometry.radius_px * reach)) - 1);
-    const int x1 = std::min(luminance.width - 1,
-                            static_cast<int>(std::ceil(axis + geometry.radius_px * reach)) + 1);
-    // Background samples: beyond 1.15 radii, every 4th pixel.
-    for (int x = 0; x < luminance.width; x += 4) {
-      if (std::fabs(geometry.NormalisedOffset(x, y)) > 1.15 && !luminance.IsSaturated(x, y)) {
-        outside.push_back(luminance.At(x, y));
+    // Background samples: beyond 1.15 radii, every 4th pixel of every 4th row.
+    if ((y - geometry.top_row) % 4 == 0) {
+      for (int x = 0; x < luminance.width; x += 4) {
+        if (std::fabs(geometry.NormalisedOffset(x, y)) > 1.15 && !luminance.IsSaturated(x, y)) {
+          outside.push_back(luminance.At(x, y));
+        }
       }
     }
-    for (int x = x0; x <= x1; ++x) {
-      // Pixels centred beyond the limit (limb pixels, mostly background)
-      // stay out, as options.max_abs_azimuth_deg promises; spreading their
-      // footprint would carry the background into the outermost bins.
-      const double centre = AzimuthFromOffset(geometry.NormalisedOffset(x, y), projection);
-      if (!(std::fabs(centre) < limb)) continue;
-      // The pixel's footprint in azimuth, clipped to the visible range.
-      double a = AzimuthFromOffset(std::clamp(geometry.NormalisedOffset(x - 0.5, y), -1.0, 1.0), projection);
-      double b = AzimuthFromOffset(std::clamp(geometry.NormalisedOffset(x + 0.5, y), -1.0, 1.0), projection);
-      a = std::max(a, -limb);
-      b = std::min(b, limb);
-      if (!(b > a)) continue;
-      const bool saturated = luminance.IsSaturated(x, y);
-      if (saturated) ++profile.saturated_samples;
-      const float value = luminance.At(x, y);
-      const double width = b - a;
-      const int first = std::max(0, static_cast<int>(std::floor(a / bin)) + half_bins);
-      const int last = std::min(num_bins - 1, static_cast<int>(std::floor(b / bin)) + half_bins);
-      for (int k = first; k <= last; ++k) {
-        const double lo = (k - half_bins) * bin;
-        const double w = (std::min(b, lo + bin) - std::max(a, lo)) / width;
-        if (w <= 0.0) continue;
-        if (saturated) {
-          profile.saturated[k] += w;
-        } else {
-          sums[k] += w * value;
-          counts[k] += w;
+    // The row's pixel footprints as (bin, weight) pairs, relative to the
+    // axis column quantised to 1/kSubpixel px (a 1/64 px shift moves φ by
+    // < 0.001° at any radius worth measuring): rows whose axes share the
+    // fractional part share the table, whatever the tilt.
+    const double axis_q = std::round(axis * kSubpixel) / kSubpixel;
+    const double base = std::floor(axis_q);
+    const int key = static_cast<int>(std::lround((axis_q - base) * kSubpixel)) % kSubpixel;
+    Footprints& fp = footprints[key];
+    if (fp.start.empty()) {
+      const double frac = static_cast<double>(key) / kSubpixel;
+      fp.start.assign(2 * half_span + 2, 0);
+      for (int dx = -half_span; dx <= half_span; ++dx) {
+        fp.start[dx + half_span] = static_cast<int>(fp.bins.size());
+        const double centre = (dx - frac) * cos_tilt / geometry.radius_px;
+        // Pixels centred beyond the limit (limb pixels, mostly background)
+        // stay out, as options.max_abs_azimuth_deg promises; spreading
+        // their footprint would carry the background into the outer bins.
+        if (!(std::fabs(centre) < limit_offset)) continue;
+        // The pixel's footprint in azimuth, clipped to the visible range.
+        const double a = std::max(azimuth_of((dx - 0.5 - frac) * cos_tilt / geometry.radius_px), -limb);
+        const double b = std::min(azimuth_of((dx + 0.5 - frac) * cos_tilt / geometry.radius_px), limb);
+        if (!(b > a)) continue;
+        const int first = std::max(0, static_cast<int>(std::floor(a / bin)) + half_bins);
+        const int last = std::min(num_bins - 1, static_cast<int>(std::floor(b / bin)) + half_bins);
+        for (int k = first; k <= last; ++k) {
+          const double lo = (k - half_bins) * bin;
+          const double w = (std::min(b, lo + bin) - std::max(a, lo)) / (b - a);
+          if (w <= 0.0) continue;
+          fp.bins.push_back(k);
+          fp.weights.push_back(w);
         }
+      }
+      fp.start[2 * half_span + 1] = static_cast<int>(fp.bins.size());
+    }
+    const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
+    const std::uint8_t* mask = luminance.saturated.empty()
+                                   ? nullptr
+                                   : &luminance.saturated[static_cast<std::size_t>(y) * luminance.width];
+    const int b0 = static_cast<int>(base);
+    const int dx_lo = std::max(-half_span, -b0);
+    const int dx_hi = std::min(half_span, luminance.width - 1 - b0);
+    for (int dx = dx_lo; dx <= dx_hi; ++dx) {
+      const int from = fp.start[dx + half_span];
+      const int to = fp.start[dx + half_span + 1];
+      if (from == to) continue;
+      const int x = b0 + dx;
+      if (mask != nullptr && mask[x]) {
+        ++profile.saturated_samples;
+        for (int j = from; j < to; ++j) profile.saturated[fp.bins[j]] += fp.weights[j];
+        continue;
+      }
+      const double value = row[x];
+      for (int j = from; j < to; ++j) {
+        sums[fp.bins[j]] += fp.weights[j] * value;
+        counts[fp.bins[j]] += fp.weights[j];
       }
     }
   }

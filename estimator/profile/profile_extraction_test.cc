@@ -165,7 +165,10 @@ TEST(ProfileExtractionTest, CountsAndBlockSumsAreConsistent) {
   }
   double total = 0.0;
   for (double c : p->count) total += c;
-  EXPECT_NEAR(total, static_cast<double>(expected), 1e-6 * expected);
+  // The axis is quantised to 1/32 px for the footprint tables, so a pixel
+  // centred within 1/64 px of the limit may land on either side: at most a
+  // few in the whole image.
+  EXPECT_NEAR(total, static_cast<double>(expected), 0.05 * (g.bottom_row - g.top_row + 1));
   ASSERT_EQ(p->num_blocks, 8);
   ASSERT_EQ(p->block_sum.size(), static_cast<std::size_t>(8 * p->NumBins()));
   for (int i = 0; i < p->NumBins(); ++i) {

@@ -1,0 +1,117 @@
+// Per-stage cost of the estimate on a large photograph (issue 4): decode and
+// each later stage separately, on a 4096×3072 16-bit PNG rendered once.
+// Timings live here, never in pass/fail tests (machines are shared).
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <string>
+
+#include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/io/decode.h"
+#include "estimator/io/encode.h"
+#include "estimator/peaks/peak_picking.h"
+#include "estimator/pipeline/estimate.h"
+#include "estimator/profile/profile_extraction.h"
+#include "estimator/render/render.h"
+
+namespace weavefit {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// The shared input: rendered once (coarse sampling, it is only input).
+struct Input {
+  std::string png;
+  Image image;
+  Image luminance;
+  CylinderGeometry geometry;
+  Profile profile;
+  Acquisition acquisition;
+};
+
+const Input& TheInput() {
+  static const Input* input = [] {
+    auto* in = new Input;
+    RenderScene scene;
+    scene.width_px = 4096;
+    scene.height_px = 3072;
+    scene.radius_px = 1600;
+    scene.wavelength_mm = 2.0;
+    scene.amplitude_mm = 0.0764;
+    scene.phase_angle_deg = 10.0;
+    scene.samples_per_pixel = 1;
+    in->image = RenderPhotograph(scene)->image;
+    in->png = *EncodeImage(in->image, EncodeFormat::kPng16);
+    in->image = *DecodeImage(in->png, DecodeOptions());
+    in->luminance = Luminance(in->image);
+    in->geometry = *DetectCylinder(in->luminance, CylinderDetectionOptions());
+    in->acquisition.phase_angle_rad = 10.0 * kDeg;
+    in->profile = *ExtractProfile(in->luminance, in->geometry,
+                                  in->acquisition.GetProjection(), ProfileOptions());
+    std::fprintf(stderr, "input: %dx%d 16-bit PNG, %zu bytes\n", in->image.width,
+                 in->image.height, in->png.size());
+    return in;
+  }();
+  return *input;
+}
+
+void BM_Decode(benchmark::State& state) {
+  const Input& in = TheInput();
+  DecodeOptions options;
+  options.max_pixels = 1LL << 26;
+  for (auto _ : state) benchmark::DoNotOptimize(DecodeImage(in.png, options));
+  state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(in.png.size()));
+}
+
+void BM_DetectCylinder(benchmark::State& state) {
+  const Input& in = TheInput();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(DetectCylinder(in.luminance, CylinderDetectionOptions()));
+  }
+}
+
+void BM_ExtractProfile(benchmark::State& state) {
+  const Input& in = TheInput();
+  const Projection projection = in.acquisition.GetProjection();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(ExtractProfile(in.luminance, in.geometry, projection, ProfileOptions()));
+  }
+}
+
+void BM_PickPeaks(benchmark::State& state) {
+  const Input& in = TheInput();
+  const Projection projection = in.acquisition.GetProjection();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        PickPeaks(in.profile, in.acquisition.phase_angle_rad, projection, PeakPickingOptions()));
+  }
+}
+
+// Everything after decoding, as the pipeline runs it.
+void BM_AfterDecode(benchmark::State& state) {
+  const Input& in = TheInput();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(EstimateFromImage(in.image, in.acquisition, EstimateOptions()));
+  }
+}
+
+void BM_WholeEstimate(benchmark::State& state) {
+  const Input& in = TheInput();
+  EstimateOptions options;
+  options.max_pixels = 1LL << 26;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(EstimateFromBytes(in.png, in.acquisition, options));
+  }
+}
+
+BENCHMARK(BM_Decode)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DetectCylinder)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ExtractProfile)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_PickPeaks)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_AfterDecode)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WholeEstimate)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace weavefit
+
+BENCHMARK_MAIN();
