@@ -38,7 +38,7 @@ struct PeakPickingOptions {
   // between the peaks) rather than a sinusoid (a filled lobe).
   double sawtooth_valley_ratio = 0.1;
   // Resamples of row blocks for the standard errors (0 disables them).
-  int bootstrap_samples = 100;
+  int bootstrap_samples = 50;
   std::uint32_t seed = 20030301;
 
   absl::Status Validate() const;

@@ -32,7 +32,10 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                                const EstimateOptions& options,
                                                Estimate estimate,
                                                StageClock& clock) {
-  const Image luminance = Luminance(image);
+  // One channel is used as it is; three are reduced to luminance (a copy).
+  Image converted;
+  if (image.channels != 1) converted = Luminance(image);
+  const Image& luminance = image.channels != 1 ? converted : image;
   CylinderDetectionOptions detection = options.detection;
   detection.region = acquisition.region;
   absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
