@@ -285,6 +285,7 @@ std::vector<SceneParam> SceneParams(RenderScene& s) {
       {"--diffuse", "diffuse", "Lambertian level (coloured fabrics)", &s.diffuse},
       {"--ambient", "ambient", "uniform level of the cylinder body", &s.ambient},
       {"--background", "background", "level outside the cylinder", &s.background},
+      {"--mount-level", "mountLevel", "level of a mount beyond the cylinder's ends (0.6 radii wide); < 0 = none", &s.mount_level},
       {"--gap-fraction", "gapFraction", "share of each thread pitch showing axial threads", &s.gap_fraction},
       {"--crest-tilt-deg", "crestTiltDeg", "out-of-plane tilt at a thread's edges, deg; 0 = flat ribbons", &s.crest_tilt_deg},
       {"--phase-step", "phaseStep", "weave phase between neighbouring threads, periods (0.5 = plain weave)", &s.phase_step},

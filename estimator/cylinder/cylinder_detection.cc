@@ -29,48 +29,69 @@ struct Line {
   std::vector<bool> inlier;
 };
 
-// Least-squares line column = a + slope·(row − center_row), then one pass of
-// outlier rejection (stray glints, mount edges) and a refit.
+// Line column = a + slope·(row − center_row) through the limb points of the
+// bands. Bands on a mount or a cylinder end, or hit by a stray glint, give
+// points off the line, possibly many: the line with the most points within
+// 1.5 px among those through every pair of points is kept (exhaustive, so
+// deterministic), then refitted by least squares on its inliers.
 Line FitLimbLine(const std::vector<LimbPoint>& points, double center_row) {
+  constexpr double kInlierPx = 1.5;
   Line line;
-  line.inlier.assign(points.size(), true);
-  for (int pass = 0; pass < 2; ++pass) {
-    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      if (!line.inlier[i]) continue;
-      const double x = points[i].row - center_row;
-      sw += 1;
-      sx += x;
-      sy += points[i].column;
-      sxx += x * x;
-      sxy += x * points[i].column;
-    }
-    const double det = sw * sxx - sx * sx;
-    if (sw >= 3 && det > 1e-9) {
-      line.slope = (sw * sxy - sx * sy) / det;
-      line.at_center = (sy - line.slope * sx) / sw;
-    } else {
-      line.slope = 0.0;
-      line.at_center = sw > 0 ? sy / sw : 0.0;
-    }
-    std::vector<double> abs_residuals;
-    for (const LimbPoint& p : points) {
-      abs_residuals.push_back(std::fabs(
-          p.column - line.at_center - line.slope * (p.row - center_row)));
-    }
-    const double tolerance =
-        std::max(1.5, 3.0 * 1.4826 * Median(abs_residuals));
-    double sum_sq = 0;
-    int n = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      line.inlier[i] = abs_residuals[i] <= tolerance;
-      if (line.inlier[i]) {
-        sum_sq += abs_residuals[i] * abs_residuals[i];
-        ++n;
+  line.inlier.assign(points.size(), false);
+  std::size_t best = 0;
+  double best_a = 0.0;
+  double best_slope = 0.0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t j = i + 1; j < points.size(); ++j) {
+      const double dr = points[j].row - points[i].row;
+      if (std::fabs(dr) < 1e-9) continue;
+      const double slope = (points[j].column - points[i].column) / dr;
+      const double a = points[i].column + slope * (center_row - points[i].row);
+      std::size_t count = 0;
+      for (const LimbPoint& p : points) {
+        count += std::fabs(p.column - a - slope * (p.row - center_row)) <= kInlierPx;
+      }
+      if (count > best) {
+        best = count;
+        best_a = a;
+        best_slope = slope;
       }
     }
-    line.rms = n > 0 ? std::sqrt(sum_sq / n) : 0.0;
   }
+  if (best == 0 && !points.empty()) {  // a single point
+    best_a = points[0].column;
+    best_slope = 0.0;
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    line.inlier[i] = std::fabs(points[i].column - best_a - best_slope * (points[i].row - center_row)) <= kInlierPx;
+  }
+  double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!line.inlier[i]) continue;
+    const double x = points[i].row - center_row;
+    sw += 1;
+    sx += x;
+    sy += points[i].column;
+    sxx += x * x;
+    sxy += x * points[i].column;
+  }
+  const double det = sw * sxx - sx * sx;
+  if (sw >= 3 && det > 1e-9) {
+    line.slope = (sw * sxy - sx * sy) / det;
+    line.at_center = (sy - line.slope * sx) / sw;
+  } else {
+    line.slope = best_slope;
+    line.at_center = best_a;
+  }
+  double sum_sq = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!line.inlier[i]) continue;
+    const double r = points[i].column - line.at_center - line.slope * (points[i].row - center_row);
+    sum_sq += r * r;
+    ++n;
+  }
+  line.rms = n > 0 ? std::sqrt(sum_sq / n) : 0.0;
   return line;
 }
 
@@ -302,6 +323,26 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   while (bottom > band_first[last] && !(row_on_cylinder(bottom) && row_on_cylinder(bottom - 1))) --bottom;
   g.top_row = top;
   g.bottom_row = std::max(bottom, top);
+  // Refit the limbs on the bands wholly inside the usable rows: a band that
+  // straddles an end holds a partial limb that tilts the lines.
+  const double half_band = 0.5 * region.height / bands;
+  std::vector<LimbPoint> inner_left;
+  std::vector<LimbPoint> inner_right;
+  for (std::size_t i = 0; i < left_points.size(); ++i) {
+    if (left_points[i].row - half_band >= g.top_row - 0.5 &&
+        left_points[i].row + half_band <= g.bottom_row + 0.5) {
+      inner_left.push_back(left_points[i]);
+      inner_right.push_back(right_points[i]);
+    }
+  }
+  if (inner_left.size() >= 3 && inner_left.size() < left_points.size()) {
+    const Line l = FitLimbLine(inner_left, center_row);
+    const Line r = FitLimbLine(inner_right, center_row);
+    g.center_x_px = 0.5 * (l.at_center + r.at_center);
+    g.axis_angle_rad = std::atan(-0.5 * (l.slope + r.slope));
+    g.radius_px = 0.5 * (r.at_center - l.at_center) * std::cos(g.axis_angle_rad);
+    g.limb_rms_px = std::sqrt(0.5 * (l.rms * l.rms + r.rms * r.rms));
+  }
   return g;
 }
 

@@ -46,6 +46,7 @@ double CrestFactor(double t0, double t1, double kappa) {
 // The geometric terms of one surface sample, before colour and exposure.
 struct Terms {
   bool on_cylinder = false;
+  bool mount = false;     // on the mount beyond a cylinder end
   double specular = 0.0;  // circumferential threads, per unit E0
   double axial = 0.0;     // axial threads, per unit E0
   double diffuse = 0.0;   // max(0, cos(φ − α))
@@ -125,7 +126,11 @@ class Sampler {
     const double offset = (u - axis_u) * cos_tilt_ / radius_px_;
     const double along_px = (cy_ - v) / cos_tilt_ + (u - axis_u) * sin_tilt_;
     const int row_on_axis = static_cast<int>(std::lround(cy_ - along_px));
-    if (std::fabs(offset) >= 1.0 || row_on_axis < top_ || row_on_axis > bottom_) return t;
+    if (row_on_axis < top_ || row_on_axis > bottom_) {
+      t.mount = scene_.mount_level >= 0.0 && std::fabs(offset) < 0.6;
+      return t;
+    }
+    if (std::fabs(offset) >= 1.0) return t;
     t.on_cylinder = true;
     const double phi = AzimuthFromOffset(offset, projection_);
     const double view = ViewAngleRad(phi, projection_);
@@ -290,7 +295,7 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
                                   scene.exposure * (scene.specular_rgb[c] * t.specular +
                                                     scene.axial_reflectance * scene.axial_rgb[c] * t.axial) +
                                   scene.diffuse * scene.diffuse_rgb[c] * t.diffuse
-                            : scene.background;
+                            : (t.mount ? scene.mount_level : scene.background);
             }
           }
         }
@@ -425,6 +430,7 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
       {"diffuse", num(s.diffuse)},
       {"ambient", num(s.ambient)},
       {"background", num(s.background)},
+      {"mountLevel", num(s.mount_level)},
       {"gapFraction", num(s.gap_fraction)},
       {"crestTiltDeg", num(s.crest_tilt_deg)},
       {"phaseStep", num(s.phase_step)},

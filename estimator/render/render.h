@@ -38,6 +38,9 @@ struct RenderScene {
   double diffuse = 0.0;             // Lambertian level
   double ambient = 0.03;            // uniform level of the cylinder body
   double background = 0.01;         // level outside the cylinder
+  // A mount beyond the cylinder's ends (rows outside top/bottom_row_px): a
+  // block 0.6 radii wide on the axis at this level; < 0 = no mount.
+  double mount_level = -1.0;
   double gap_fraction = 0.15;       // share of each thread pitch showing axial threads
   // Largest out-of-plane tilt of a circumferential thread's surface at its
   // edges (0 = flat ribbons). A rounded thread glints only along its crest.
