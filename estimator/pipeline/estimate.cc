@@ -27,6 +27,118 @@ class StageClock {
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
+// One channel of an image, with the image's saturation mask.
+Image Channel(const Image& image, int c) {
+  Image out;
+  out.width = image.width;
+  out.height = image.height;
+  out.channels = 1;
+  out.format = image.format;
+  out.bit_depth = image.bit_depth;
+  out.saturated = image.saturated;
+  out.pixels.resize(static_cast<std::size_t>(image.width) * image.height);
+  for (std::size_t i = 0; i < out.pixels.size(); ++i) {
+    out.pixels[i] = image.pixels[i * image.channels + c];
+  }
+  return out;
+}
+
+// Where each colour's features are (issue 4): the peaks of each channel's
+// own profile, its lobe level and its grazing scatter near the lit limb.
+std::vector<ChannelSummary> SummariseChannels(const Image& image,
+                                              const CylinderGeometry& cylinder,
+                                              const Acquisition& acquisition,
+                                              const EstimateOptions& options,
+                                              std::vector<std::string>* warnings) {
+  std::vector<ChannelSummary> out;
+  const char* names[] = {"R", "G", "B"};
+  const Projection projection = acquisition.GetProjection();
+  const double alpha = acquisition.phase_angle_rad;
+  for (int c = 0; c < 3; ++c) {
+    ChannelSummary summary;
+    summary.channel = names[c];
+    absl::StatusOr<Profile> profile =
+        ExtractProfile(Channel(image, c), cylinder, projection, options.profile);
+    if (!profile.ok()) continue;
+    absl::StatusOr<PeakPickingResult> peaks = PickPeaks(*profile, alpha, projection, options.peaks);
+    if (peaks.ok()) {
+      summary.model = peaks->model;
+      summary.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true};
+      if (peaks->split_resolved) {
+        summary.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true};
+      }
+    }
+    // The body beside the lobe, lit bins only: a + b/cos φ + d·cos(φ − α)
+    // (ambient, the axial threads' grazing scatter, a Lambertian term), by
+    // linear least squares; b/cos φ at 77° is the grazing level.
+    const double lobe_half = peaks.ok() ? 0.5 * peaks->spacing_rad + 6.0 * kDeg : 45.0 * kDeg;
+    double ata[3][3] = {{0}};
+    double atb[3] = {0};
+    for (int i = 0; i < profile->NumBins(); ++i) {
+      const double phi = profile->azimuth_rad[i];
+      if (profile->count[i] <= 0 || std::cos(phi - alpha) <= 0.05 ||
+          std::fabs(phi - alpha / 2.0) < lobe_half) {
+        continue;
+      }
+      const double f[3] = {1.0, 1.0 / std::cos(phi), std::cos(phi - alpha)};
+      const double w = profile->count[i];
+      for (int r = 0; r < 3; ++r) {
+        atb[r] += w * f[r] * profile->mean[i];
+        for (int k = 0; k < 3; ++k) ata[r][k] += w * f[r] * f[k];
+      }
+    }
+    // Solve the 3×3 system (Cramer's rule; the terms are well apart).
+    auto det3 = [](const double m[3][3]) {
+      return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+             m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+             m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    };
+    const double d = det3(ata);
+    double coef[3] = {0.0, 0.0, 0.0};
+    if (std::fabs(d) > 1e-30) {
+      for (int k = 0; k < 3; ++k) {
+        double m[3][3];
+        for (int r = 0; r < 3; ++r) {
+          for (int q = 0; q < 3; ++q) m[r][q] = q == k ? atb[r] : ata[r][q];
+        }
+        coef[k] = det3(m) / d;
+      }
+    }
+    auto body = [&](double phi) {
+      return coef[0] + coef[1] / std::cos(phi) + coef[2] * std::max(std::cos(phi - alpha), 0.0);
+    };
+    for (int i = 0; i < profile->NumBins(); ++i) {
+      const double phi = profile->azimuth_rad[i];
+      if (profile->count[i] > 0 && std::fabs(phi - alpha / 2.0) < lobe_half) {
+        summary.lobe_level = std::max(summary.lobe_level, profile->mean[i] - body(phi));
+      }
+    }
+    summary.grazing_level = std::max(coef[1], 0.0) / std::cos(77.0 * kDeg);
+    out.push_back(summary);
+  }
+  if (out.size() == 3) {
+    double lobe_total = 0.0;
+    double grazing_total = 0.0;
+    int lobe_best = 0;
+    int grazing_best = 0;
+    for (int c = 0; c < 3; ++c) {
+      lobe_total += std::max(out[c].lobe_level, 0.0);
+      grazing_total += std::max(out[c].grazing_level, 0.0);
+      if (out[c].lobe_level > out[lobe_best].lobe_level) lobe_best = c;
+      if (out[c].grazing_level > out[grazing_best].grazing_level) grazing_best = c;
+    }
+    if (lobe_best != grazing_best && lobe_total > 0 && grazing_total > 0 &&
+        out[lobe_best].lobe_level > 0.4 * lobe_total &&
+        out[grazing_best].grazing_level > 0.4 * grazing_total) {
+      warnings->push_back(absl::StrCat(
+          "colour: the specular lobe is strongest in ", out[lobe_best].channel,
+          ", the grazing scatter in ", out[grazing_best].channel,
+          " (a shot fabric: the two thread families differ in colour)"));
+    }
+  }
+  return out;
+}
+
 absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                                const Acquisition& acquisition,
                                                const EstimateOptions& options,
@@ -54,8 +166,12 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
       PickPeaks(*profile, acquisition.phase_angle_rad, projection, options.peaks);
   if (!peaks.ok()) return peaks.status();
   clock.Lap("peaks");
+  if (image.channels == 3) {
+    estimate.channels =
+        SummariseChannels(image, *cylinder, acquisition, options, &estimate.warnings);
+    clock.Lap("channels");
+  }
   estimate.timings = clock.laps();
-
   estimate.method = "peak-picking";
   estimate.profile = *std::move(profile);
   estimate.smoothing_rad = peaks->smoothing_rad;

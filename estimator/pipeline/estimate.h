@@ -75,6 +75,16 @@ struct ImageSummary {
   std::int64_t saturated_pixels = 0;
 };
 
+// One colour channel of a three-channel photograph (library units).
+struct ChannelSummary {
+  std::string channel;  // "R", "G", "B"
+  ProfileModel model = ProfileModel::kSmooth;
+  Quantity peak_spacing_rad;
+  Quantity specular_azimuth_rad;
+  double lobe_level = 0.0;     // highest lobe level above the background
+  double grazing_level = 0.0;  // mean level at 70–84° toward the light, above the background
+};
+
 struct Estimate {
   ProfileModel model = ProfileModel::kSmooth;
   Quantity peak_spacing_rad;
@@ -92,6 +102,8 @@ struct Estimate {
   // (σ, rad) the peaks were located at: for plots and diagnostics.
   Profile profile;
   double smoothing_rad = 0.0;
+  // Per colour channel, for three-channel photographs; empty otherwise.
+  std::vector<ChannelSummary> channels;
   // One line for logs: model, spacing and slope with their errors.
   std::string BriefReport() const;
 };

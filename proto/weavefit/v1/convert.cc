@@ -112,6 +112,15 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
   image->set_format(e.image.format);
   image->set_bit_depth(e.image.bit_depth);
   image->set_saturated_pixels(e.image.saturated_pixels);
+  for (const ChannelSummary& c : e.channels) {
+    v1::ChannelSummary* out = reply.add_channels();
+    out->set_channel(c.channel);
+    out->set_model(ModelToProto(c.model));
+    SetMeasurement(c.peak_spacing_rad, 1.0 / kDeg, out->mutable_peak_spacing_deg());
+    SetMeasurement(c.specular_azimuth_rad, 1.0 / kDeg, out->mutable_specular_azimuth_deg());
+    out->set_lobe_level(c.lobe_level);
+    out->set_grazing_level(c.grazing_level);
+  }
   reply.set_sample_name(sample_name);
   reply.set_method(e.method);
   reply.set_version(WEAVEFIT_VERSION);
