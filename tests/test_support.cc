@@ -119,6 +119,14 @@ std::string SidecarString(const google::protobuf::Struct& s,
   return f->second.string_value();
 }
 
+bool SidecarBool(const google::protobuf::Struct& s, const std::string& object,
+                 const std::string& field) {
+  auto o = s.fields().find(object);
+  if (o == s.fields().end()) return false;
+  auto f = o->second.struct_value().fields().find(field);
+  return f != o->second.struct_value().fields().end() && f->second.bool_value();
+}
+
 Daemon::Daemon(const std::vector<std::string>& extra_flags) {
   dir_ = MakeTempDir();
   const std::string port_file = dir_ + "/port";

@@ -34,6 +34,8 @@ std::optional<double> SidecarNumber(const google::protobuf::Struct& s,
                                     const std::string& field);
 std::string SidecarString(const google::protobuf::Struct& s,
                           const std::string& object, const std::string& field);
+bool SidecarBool(const google::protobuf::Struct& s, const std::string& object,
+                 const std::string& field);
 
 // A weavefitd child process on an ephemeral loopback port.
 class Daemon {

@@ -6,6 +6,8 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "estimator/glints/glint_period.h"
+#include "estimator/profile/arc_signals.h"
 
 namespace weavefit {
 namespace {
@@ -139,6 +141,58 @@ std::vector<ChannelSummary> SummariseChannels(const Image& image,
   return out;
 }
 
+// The wavelength from the glints along the rows inside the lobe, and the
+// amplitude from it and the max slope (DESIGN.md §3).
+void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder,
+                        const Acquisition& acquisition, const PeakPickingResult& peaks,
+                        double pixel_noise, const EstimateOptions& options,
+                        Estimate* estimate) {
+  if (!peaks.split_resolved) {
+    estimate->warnings.push_back(
+        "wavelength and amplitude unresolved: with no split there are no "
+        "glints along the arc to time the thread period by");
+    return;
+  }
+  if (peaks.model == ProfileModel::kSawtooth) {
+    estimate->warnings.push_back(
+        "wavelength and amplitude unresolved: a sawtooth mirrors only at the "
+        "two caustic azimuths, so its glints do not repeat along the arc");
+    return;
+  }
+  const Projection projection = acquisition.GetProjection();
+  const double half = 0.5 * peaks.spacing_rad;
+  const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;
+  ArcSignalOptions arc;
+  arc.from_rad = std::max(peaks.mirror_rad - 0.9 * half, -limit);
+  arc.to_rad = std::min(peaks.mirror_rad + 0.9 * half, limit);
+  absl::StatusOr<ArcSignals> signals = ExtractArcSignals(luminance, cylinder, projection, arc);
+  GlintModel model;
+  model.max_slope = peaks.max_slope;
+  model.max_slope_stderr = peaks.max_slope_stderr;
+  model.phase_angle_rad = acquisition.phase_angle_rad;
+  model.projection = projection;
+  model.mm_per_px = projection.radius_mm / cylinder.radius_px;
+  model.pixel_noise = pixel_noise;
+  absl::StatusOr<GlintPeriodResult> period =
+      signals.ok() ? EstimateGlintPeriod(*signals, model, options.glints)
+                   : absl::StatusOr<GlintPeriodResult>(signals.status());
+  if (!period.ok() || !period->resolved) {
+    estimate->warnings.push_back(absl::StrCat(
+        "wavelength and amplitude unresolved: ",
+        period.ok() ? period->reason : std::string(period.status().message())));
+    return;
+  }
+  const double lambda = period->wavelength_mm;
+  const double lambda_se = period->wavelength_stderr_mm;
+  estimate->wavelength_mm = {lambda, lambda_se, true};
+  // Sinusoid h0·sin(2πx/λ): m = 2π·h0/λ.
+  const double m = estimate->max_slope.value;
+  const double h0 = m * lambda / (2.0 * M_PI);
+  const double rel = std::hypot(estimate->max_slope.stderr_value / m, lambda_se / lambda);
+  estimate->amplitude_mm = {h0, h0 * rel, true};
+
+}
+
 absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                                const Acquisition& acquisition,
                                                const EstimateOptions& options,
@@ -171,7 +225,6 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
         SummariseChannels(image, *cylinder, acquisition, options, &estimate.warnings);
     clock.Lap("channels");
   }
-  estimate.timings = clock.laps();
   estimate.method = "peak-picking";
   estimate.profile = *std::move(profile);
   estimate.smoothing_rad = peaks->smoothing_rad;
@@ -199,10 +252,10 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
         " saturated pixels on the cylinder were left out of the profile; "
         "lower the exposure if they fall on the peaks"));
   }
-  estimate.warnings.push_back(
-      "wavelength and amplitude are not measured by this version (the "
-      "far-field profile fixes only the max slope; the glint periodicity "
-      "analysis is not implemented yet)");
+  EstimateWavelength(luminance, *cylinder, acquisition, *peaks,
+                     estimate.profile.background_noise, options, &estimate);
+  clock.Lap("glints");
+  estimate.timings = clock.laps();
   return estimate;
 }
 
@@ -240,6 +293,7 @@ absl::Status EstimateOptions::Validate() const {
   if (max_pixels <= 0) return absl::InvalidArgumentError("max_pixels must be > 0");
   if (absl::Status s = detection.Validate(); !s.ok()) return s;
   if (absl::Status s = profile.Validate(); !s.ok()) return s;
+  if (absl::Status s = glints.Validate(); !s.ok()) return s;
   return peaks.Validate();
 }
 

@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/glints/glint_period.h"
 #include "estimator/io/decode.h"
 #include "estimator/io/image.h"
 #include "estimator/optics/radiance.h"
@@ -42,6 +43,7 @@ struct EstimateOptions {
   CylinderDetectionOptions detection;
   ProfileOptions profile;
   PeakPickingOptions peaks;
+  GlintPeriodOptions glints;
 
   absl::Status Validate() const;
 };

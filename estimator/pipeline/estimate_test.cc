@@ -116,7 +116,7 @@ TEST(EstimateTest, FromPng16Bytes) {
   EXPECT_EQ(e->image.format, "png");
   EXPECT_EQ(e->image.bit_depth, 16);
   EXPECT_EQ(e->image.saturated_pixels, 0);
-  EXPECT_EQ(Stages(*e), (std::vector<std::string>{"decode", "detect", "profile", "peaks"}));
+  EXPECT_EQ(Stages(*e), (std::vector<std::string>{"decode", "detect", "profile", "peaks", "glints"}));
 }
 
 TEST(EstimateTest, FromImageMatchesFromBytes) {
@@ -124,7 +124,7 @@ TEST(EstimateTest, FromImageMatchesFromBytes) {
   absl::StatusOr<Estimate> from_image = EstimateFromImage(r.image, Lab(), EstimateOptions());
   ASSERT_TRUE(from_image.ok()) << from_image.status();
   ExpectSinusoidEstimate(*from_image, 1.0);
-  EXPECT_EQ(Stages(*from_image), (std::vector<std::string>{"detect", "profile", "peaks"}));
+  EXPECT_EQ(Stages(*from_image), (std::vector<std::string>{"detect", "profile", "peaks", "glints"}));
   EXPECT_EQ(from_image->image.format, "");
 
   absl::StatusOr<Estimate> from_bytes = EstimateFromBytes(

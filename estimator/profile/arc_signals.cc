@@ -1,0 +1,60 @@
+#include "estimator/profile/arc_signals.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/status/status.h"
+
+namespace weavefit {
+
+absl::Status ArcSignalOptions::Validate() const {
+  if (!(to_rad > from_rad) || !std::isfinite(from_rad) || !std::isfinite(to_rad)) {
+    return absl::InvalidArgumentError("arc signal range must have from_rad < to_rad");
+  }
+  if (!(step_rad >= 0.0)) return absl::InvalidArgumentError("step_rad must be >= 0");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
+                                             const CylinderGeometry& geometry,
+                                             const Projection& projection,
+                                             const ArcSignalOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (luminance.channels != 1) {
+    return absl::InvalidArgumentError("ExtractArcSignals needs a one-channel image");
+  }
+  const double limb = projection.VisibleLimbRad();
+  if (options.from_rad <= -limb || options.to_rad >= limb) {
+    return absl::InvalidArgumentError("arc signal range reaches beyond the visible limb");
+  }
+  ArcSignals out;
+  out.radius_mm = projection.radius_mm;
+  out.step_rad = options.step_rad > 0 ? options.step_rad : 0.5 / geometry.radius_px;
+  out.first_azimuth_rad = options.from_rad;
+  out.num_samples = static_cast<int>(std::floor((options.to_rad - options.from_rad) / out.step_rad)) + 1;
+  // Column offset of each sample from the axis (horizontal, in px).
+  std::vector<double> dx(out.num_samples);
+  const double horizontal = geometry.radius_px / std::cos(geometry.axis_angle_rad);
+  for (int k = 0; k < out.num_samples; ++k) {
+    dx[k] = OffsetFromAzimuth(out.first_azimuth_rad + k * out.step_rad, projection) * horizontal;
+  }
+  for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) out.rows.push_back(y);
+  out.values.assign(out.rows.size() * out.num_samples, 0.0f);
+  out.valid.assign(out.values.size(), 1);
+  for (std::size_t r = 0; r < out.rows.size(); ++r) {
+    const int y = out.rows[r];
+    const double axis = geometry.AxisColumn(y);
+    const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
+    for (int k = 0; k < out.num_samples; ++k) {
+      const double x = axis + dx[k];
+      const int x0 = std::clamp(static_cast<int>(std::floor(x)), 0, luminance.width - 2);
+      const double t = std::clamp(x - x0, 0.0, 1.0);
+      const std::size_t at = r * out.num_samples + k;
+      out.values[at] = static_cast<float>((1.0 - t) * row[x0] + t * row[x0 + 1]);
+      if (luminance.IsSaturated(x0, y) || luminance.IsSaturated(x0 + 1, y)) out.valid[at] = 0;
+    }
+  }
+  return out;
+}
+
+}  // namespace weavefit

@@ -1,0 +1,48 @@
+// Per-row signals along the arc, for the thread-period analysis (DESIGN.md
+// §3: the wavelength comes only from the image's fine structure).
+#ifndef WEAVEFIT_ESTIMATOR_PROFILE_ARC_SIGNALS_H_
+#define WEAVEFIT_ESTIMATOR_PROFILE_ARC_SIGNALS_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "estimator/cylinder/azimuth_mapping.h"
+#include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/io/image.h"
+
+namespace weavefit {
+
+// Each usable row resampled on one uniform azimuth grid (linear
+// interpolation between pixel centres along the row). Arc length on the
+// cylinder is s = radius_mm · φ.
+struct ArcSignals {
+  double first_azimuth_rad = 0.0;
+  double step_rad = 0.0;
+  int num_samples = 0;
+  std::vector<int> rows;                 // image row of each signal
+  std::vector<float> values;             // rows × num_samples, linear
+  std::vector<std::uint8_t> valid;       // 0 where a saturated pixel was used
+  double radius_mm = 0.0;
+
+  double StepMm() const { return step_rad * radius_mm; }
+  const float* Row(int i) const { return &values[static_cast<std::size_t>(i) * num_samples]; }
+};
+
+struct ArcSignalOptions {
+  double from_rad = 0.0;   // azimuth range, from < to, inside the visible limb
+  double to_rad = 0.0;
+  // Grid step; 0 = half a pixel at the axis (0.5 / radius_px).
+  double step_rad = 0.0;
+
+  absl::Status Validate() const;
+};
+
+absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
+                                             const CylinderGeometry& geometry,
+                                             const Projection& projection,
+                                             const ArcSignalOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_PROFILE_ARC_SIGNALS_H_
