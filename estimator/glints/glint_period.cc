@@ -58,13 +58,28 @@ std::vector<double> FindGlints(const float* v, const std::uint8_t* ok, int n,
 // of Σ exp(−r²/2σ²) with r = lhs − arctan(m·cos(k(s + c))).
 double RowScore(const RowGlints& row, double k, double m, double sigma, int phases) {
   const double inv = 1.0 / (2.0 * sigma * sigma);
+  const double reach = 16.0 * sigma * sigma;  // beyond 4σ a glint adds < 4e-4
+  const std::size_t n = row.s_mm.size();
+  // cos(k·s + p) = cos(k·s)·cos p − sin(k·s)·sin p: one cosine per glint.
+  thread_local std::vector<double> c;
+  thread_local std::vector<double> sn;
+  c.resize(n);
+  sn.resize(n);
+  const std::size_t used = n;
+  for (std::size_t j = 0; j < used; ++j) {
+    c[j] = std::cos(k * row.s_mm[j]);
+    sn[j] = std::sin(k * row.s_mm[j]);
+  }
   double best = 0.0;
   for (int p = 0; p < phases; ++p) {
     const double phase = 2.0 * M_PI * p / phases;
+    const double cp = std::cos(phase);
+    const double sp = std::sin(phase);
     double score = 0.0;
-    for (std::size_t j = 0; j < row.s_mm.size(); ++j) {
-      const double r = row.lhs[j] - std::atan(m * std::cos(k * row.s_mm[j] + phase));
-      score += std::exp(-r * r * inv);
+    for (std::size_t j = 0; j < used; ++j) {
+      const double r = row.lhs[j] - std::atan(m * (c[j] * cp - sn[j] * sp));
+      const double r2 = r * r;
+      if (r2 < reach) score += std::exp(-r2 * inv);
     }
     best = std::max(best, score);
   }
