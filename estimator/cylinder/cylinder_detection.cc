@@ -230,13 +230,13 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
     // step's half-level crossing in place) crosses half-way between the
     // background and the surface level just inside the limb. The first
-    // column above the threshold holds about one surface pixel of its box,
-    // so the limb is ~1.5 columns further in and the box 4 columns in covers
-    // surface only; the unlit limb has only a few dim columns before the
-    // terminator, so nothing further inside may set the level.
+    // column above the threshold has the limb pixel (partly covered) at the
+    // end of its box, two columns on; the first wholly covered pixel is the
+    // third. Its own (unsmoothed) value is the level: any further in may be
+    // the lit surface beyond the terminator of an unlit limb.
     auto inside_level = [&](int from, int step) {
-      const int x = std::clamp(from + 4 * step, 0, region.width - 1);
-      return smoothed[x];
+      const int x = std::clamp(from + 3 * step, 0, region.width - 1);
+      return profile[x];
     };
     const double left_half = 0.5 * (background + inside_level(left, +1));
     const double right_half = 0.5 * (background + inside_level(right, -1));
