@@ -168,11 +168,19 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
     for (const RowGlints& row : rows) sum += RowScore(row, 2.0 * M_PI / lambda, m, sigma, phases);
     return sum / total;
   };
-  // Coarse: periods 2 % apart over the whole range.
+  // Coarse: periods 2 % apart over the whole range (at most max_periods in
+  // the arc), on every other row and 32 phases; the fine stage uses all.
   double best_lambda = 0.0;
   double best_score = -1.0;
-  for (double lambda = shortest_mm; lambda <= longest_mm; lambda *= 1.02) {
-    const double score = total_score(lambda, 2.0 * pixel_rad, 48);
+  const double coarse_from = std::max(shortest_mm, window_mm / options.max_periods);
+  for (double lambda = coarse_from; lambda <= longest_mm; lambda *= 1.02) {
+    double sum = 0.0;
+    int count = 0;
+    for (std::size_t r = 0; r < rows.size(); r += 2) {
+      sum += RowScore(rows[r], 2.0 * M_PI / lambda, m, 2.0 * pixel_rad, 32);
+      count += static_cast<int>(rows[r].s_mm.size());
+    }
+    const double score = sum / std::max(count, 1);
     if (score > best_score) {
       best_score = score;
       best_lambda = lambda;

@@ -25,8 +25,10 @@ namespace weavefit {
 struct GlintPeriodOptions {
   // Shortest period that counts as resolved, in pixels at the axis.
   double min_px_per_period = 4.0;
-  // The analysed arc must hold at least this many periods.
+  // The analysed arc must hold at least this many periods, and at most
+  // max_periods are looked for (finer weaves glint too densely to separate).
   double min_periods = 2.0;
+  double max_periods = 60.0;
   // A glint must stand this many pixel-noise sigmas above its row's median.
   double glint_sigmas = 6.0;
   // At least this many glints in all, and a share of them the best period
