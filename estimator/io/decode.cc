@@ -131,16 +131,53 @@ class MemoryIStream : public Imf::IStream {
   std::uint64_t position_ = 0;
 };
 
+// Reads the dataWindow attribute from the EXR header's attribute list
+// (name\0 type\0 size value ..., ended by an empty name) without OpenEXR,
+// which would also read the line offset table: the size is known, and
+// checked against the limit, before anything else is read or allocated.
 absl::StatusOr<ImageHeader> ReadExrHeader(const std::string& bytes) {
-  try {
-    MemoryIStream stream(bytes);
-    Imf::InputFile file(stream);
-    const Imath::Box2i window = file.header().dataWindow();
-    return ImageHeader{"exr", window.max.x - window.min.x + 1,
-                       window.max.y - window.min.y + 1};
-  } catch (const std::exception& e) {
-    return Malformed("EXR", e.what());
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::size_t n = bytes.size();
+  auto read_string = [&](std::size_t* at) -> absl::StatusOr<std::string> {
+    const std::size_t end = bytes.find('\0', *at);
+    if (end == std::string::npos || end - *at > 255) {
+      return Malformed("EXR", "attribute name or type not terminated");
+    }
+    std::string out = bytes.substr(*at, end - *at);
+    *at = end + 1;
+    return out;
+  };
+  auto read_int = [&](std::size_t at) {
+    return static_cast<std::int32_t>(std::uint32_t{p[at]} | (std::uint32_t{p[at + 1]} << 8) |
+                                     (std::uint32_t{p[at + 2]} << 16) |
+                                     (std::uint32_t{p[at + 3]} << 24));
+  };
+  if (n < 8) return Malformed("EXR", "file truncated");
+  if (p[5] & 0x10) return absl::InvalidArgumentError("multi-part EXR files are not supported");
+  std::size_t at = 8;
+  while (at < n) {
+    absl::StatusOr<std::string> name = read_string(&at);
+    if (!name.ok()) return name.status();
+    if (name->empty()) break;  // end of the header
+    absl::StatusOr<std::string> type = read_string(&at);
+    if (!type.ok()) return type.status();
+    if (at + 4 > n) return Malformed("EXR", "attribute size truncated");
+    const std::int32_t size = read_int(at);
+    at += 4;
+    if (size < 0 || at + static_cast<std::size_t>(size) > n) {
+      return Malformed("EXR", "attribute value truncated");
+    }
+    if (*name == "dataWindow" && *type == "box2i" && size == 16) {
+      const std::int64_t width = std::int64_t{read_int(at + 8)} - read_int(at) + 1;
+      const std::int64_t height = std::int64_t{read_int(at + 12)} - read_int(at + 4) + 1;
+      if (width <= 0 || height <= 0 || width > (1 << 30) || height > (1 << 30)) {
+        return Malformed("EXR", "data window is empty or absurd");
+      }
+      return ImageHeader{"exr", static_cast<int>(width), static_cast<int>(height)};
+    }
+    at += size;
   }
+  return Malformed("EXR", "no dataWindow attribute");
 }
 
 absl::StatusOr<Image> DecodeExr(const std::string& bytes,
