@@ -111,6 +111,26 @@ double Crossing(const std::vector<double>& profile, int a, int b,
   return a;
 }
 
+// Column of the brightest part of the surface: the centroid of the columns
+// more than half-way from the median of [from, to] to its maximum.
+double BrightestCentroid(const std::vector<double>& mean_profile, int x0, double from, double to) {
+  const int lo = std::max(0, static_cast<int>(std::ceil(from)) - x0);
+  const int hi = std::min(static_cast<int>(mean_profile.size()) - 1, static_cast<int>(std::floor(to)) - x0);
+  if (hi <= lo) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> values(mean_profile.begin() + lo, mean_profile.begin() + hi + 1);
+  const double median = Median(values);
+  const double top = *std::max_element(values.begin(), values.end());
+  const double level = median + 0.5 * (top - median);
+  double sum = 0.0;
+  double weight = 0.0;
+  for (int x = lo; x <= hi; ++x) {
+    if (mean_profile[x] <= level) continue;
+    sum += (mean_profile[x] - level) * (x + x0);
+    weight += mean_profile[x] - level;
+  }
+  return weight > 0.0 ? sum / weight : std::numeric_limits<double>::quiet_NaN();
+}
+
 }  // namespace
 
 absl::Status CylinderDetectionOptions::Validate() const {
@@ -288,6 +308,25 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
           "no cylinder found: only ", on, " of ", total, " columns between the two "
           "edges differ from the background; a body as dark as the background "
           "shows only its glints (light it, or darken the background)"));
+    }
+  }
+  // With the phase angle known, the lobe must stand near the mirror azimuth.
+  if (std::isfinite(options.phase_angle_rad)) {
+    const double half = g.radius_px / std::cos(g.axis_angle_rad);
+    const double xc = BrightestCentroid(mean_profile, region.x, g.center_x_px - 0.9 * half,
+                                        g.center_x_px + 0.9 * half);
+    if (std::isfinite(xc)) {
+      const double phi = AzimuthFromOffset(std::clamp((xc - g.center_x_px) / half, -1.0, 1.0),
+                                           options.projection);
+      const double miss = std::fabs(phi - options.phase_angle_rad / 2.0);
+      if (miss > options.max_lobe_offset_rad) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "no cylinder found consistent with the phase angle: the brightest part of "
+            "what was found lies at azimuth ", std::lround(phi * 180.0 / M_PI),
+            " deg, not near half the phase angle (", std::lround(options.phase_angle_rad * 90.0 / M_PI),
+            " deg); check the phase angle and its sign (positive = light on the image's "
+            "right), or a limb may be lost in darkness (not inferred yet)"));
+      }
     }
   }
   // Usable rows: from the first to the last band whose limbs agree with the

@@ -3,10 +3,12 @@
 #define WEAVEFIT_ESTIMATOR_CYLINDER_CYLINDER_DETECTION_H_
 
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "estimator/cylinder/azimuth_mapping.h"
 #include "estimator/io/image.h"
 
 namespace weavefit {
@@ -61,6 +63,13 @@ struct CylinderDetectionOptions {
   // Smallest acceptable radius in pixels.
   double min_radius_px = 8.0;
   PixelRegion region;
+  // Phase angle (rad) when known: the brightest part of the surface must
+  // then lie within max_lobe_offset_rad of the mirror azimuth α/2, or the
+  // edges found are not the limbs (a limb lost in darkness leaves only the
+  // lit lobe to find) and detection fails rather than mislead. NaN = unknown.
+  double phase_angle_rad = std::numeric_limits<double>::quiet_NaN();
+  double max_lobe_offset_rad = 40.0 * 3.14159265358979323846 / 180.0;
+  Projection projection;  // for the lobe's azimuth
 
   absl::Status Validate() const;
 };

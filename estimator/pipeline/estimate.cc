@@ -204,6 +204,8 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   const Image& luminance = image.channels != 1 ? converted : image;
   CylinderDetectionOptions detection = options.detection;
   detection.region = acquisition.region;
+  detection.phase_angle_rad = acquisition.phase_angle_rad;
+  detection.projection = acquisition.GetProjection();
   absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
   if (!cylinder.ok()) return cylinder.status();
   estimate.cylinder = *cylinder;
@@ -230,6 +232,20 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   estimate.smoothing_rad = peaks->smoothing_rad;
   estimate.model = peaks->model;
   estimate.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true};
+  {
+    // The mirror azimuth should be half the phase angle (a smooth cylinder's
+    // brightest column sits a little off it; allow a degree besides 3 σ).
+    const double expected = 0.5 * (acquisition.phase_angle_rad +
+                                    ViewAngleRad(peaks->mirror_rad, projection));
+    const double miss = std::fabs(peaks->mirror_rad - expected);
+    if (miss > 3.0 * peaks->mirror_stderr_rad + 1.0 * kDeg) {
+      estimate.warnings.push_back(absl::StrFormat(
+          "the mirror azimuth %.2f deg is %.2f deg from half the stated phase "
+          "angle (%.2f deg), more than its error explains: check the phase "
+          "angle and its sign (positive = light on the image's right)",
+          peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg));
+    }
+  }
   if (peaks->split_resolved) {
     estimate.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true};
     estimate.max_slope = {peaks->max_slope, peaks->max_slope_stderr, true};
