@@ -9,6 +9,14 @@
 namespace weavefit {
 namespace {
 
+// Pads to a display width: UTF-8 continuation bytes (the ± sign) take no
+// column of their own.
+std::string Pad(const std::string& text, int width) {
+  int shown = 0;
+  for (unsigned char c : text) shown += (c & 0xC0) != 0x80;
+  return text + std::string(std::max(0, width - shown), ' ');
+}
+
 std::string Cell(const v1::Measurement& m, const char* format) {
   if (!m.resolved()) return "unresolved";
   return absl::StrFormat(format, m.value(), m.stderr());
@@ -20,9 +28,9 @@ std::string FormatTable(const std::vector<ReportRow>& rows) {
   std::size_t name_width = 5;
   for (const ReportRow& row : rows) name_width = std::max(name_width, row.image.size());
   const int w = static_cast<int>(name_width);
-  std::string out = absl::StrFormat("%-*s  %-9s %-17s %-19s %-16s %-12s %s\n", w,
-                                    "image", "model", "spacing (deg)", "max slope",
-                                    "mirror (deg)", "wavelength", "truth spacing");
+  std::string out = absl::StrCat(Pad("image", w), "  ", Pad("model", 10), Pad("spacing (deg)", 18),
+                                 Pad("max slope", 20), Pad("mirror (deg)", 17),
+                                 Pad("wavelength (mm)", 17), "truth spacing\n");
   // Each distinct warning once, with the images it applies to.
   std::vector<std::pair<std::string, std::vector<std::string>>> notes;
   for (const ReportRow& row : rows) {
@@ -33,11 +41,11 @@ std::string FormatTable(const std::vector<ReportRow>& rows) {
     const v1::EstimateReply& r = *row.reply;
     const std::string truth =
         row.truth_spacing_deg ? absl::StrFormat("%.2f", *row.truth_spacing_deg) : "-";
-    absl::StrAppendFormat(
-        &out, "%-*s  %-9s %-17s %-19s %-16s %-12s %s\n", w, row.image,
-        v1::ProfileModel_Name(r.model()), Cell(r.peak_spacing_deg(), "%.2f ± %.2f"),
-        Cell(r.max_slope(), "%.4f ± %.4f"), Cell(r.specular_azimuth_deg(), "%.2f ± %.2f"),
-        Cell(r.wavelength_mm(), "%.3f ± %.3f"), truth);
+    absl::StrAppend(&out, Pad(row.image, w), "  ", Pad(v1::ProfileModel_Name(r.model()), 10),
+                    Pad(Cell(r.peak_spacing_deg(), "%.2f ± %.2f"), 18),
+                    Pad(Cell(r.max_slope(), "%.4f ± %.4f"), 20),
+                    Pad(Cell(r.specular_azimuth_deg(), "%.2f ± %.2f"), 17),
+                    Pad(Cell(r.wavelength_mm(), "%.3f ± %.3f"), 17), truth, "\n");
     for (const std::string& warning : r.warnings()) {
       auto it = std::find_if(notes.begin(), notes.end(),
                              [&](const auto& n) { return n.first == warning; });

@@ -29,8 +29,8 @@ port=$(cat "$work/port")
 echo "weavefitd serving on 127.0.0.1:$port"
 echo
 shopt -s nullglob
-"$root/build/client/weavefit" submit --server "127.0.0.1:$port" \
-  "$root"/fixtures/*.png "$root"/fixtures/*.tiff "$root"/fixtures/*.exr "$root"/fixtures/*.jpg
+cd "$root/fixtures"
+"$root/build/client/weavefit" submit --server "127.0.0.1:$port" *.png *.tiff *.exr *.jpg
 echo
 echo "daemon log:"
 sed 's/^/  /' "$work/weavefitd.log"
