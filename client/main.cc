@@ -180,10 +180,10 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
     ReportRow row;
     row.image = image;
     absl::StatusOr<v1::EstimateReply> reply = [&]() -> absl::StatusOr<v1::EstimateReply> {
-      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags, image);
-      if (!header.ok()) return header.status();
       absl::StatusOr<std::string> bytes = ReadFile(image);
       if (!bytes.ok()) return bytes.status();
+      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags, image);
+      if (!header.ok()) return header.status();
       if (remote) return SubmitEstimate(flags.server, *header, *bytes, flags.timeout_s);
       return EstimateInProcess(*header, *bytes, flags.profile_csv);
     }();
