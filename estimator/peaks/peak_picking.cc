@@ -510,7 +510,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     result.warnings.push_back(
         "peak picking: blur pulls each caustic peak inward, so the spacing "
         "and max slope are biased low by up to about the peak width; "
-        "SINUSOID vs SAWTOOTH is judged from the valley between the peaks only");
+        "SINUSOID vs SAWTOOTH is judged from the glints and the level between "
+        "the peaks only (no model fit yet)");
   } else {
     const double peak = RefineMaximum(s, top_index);
     result.model = ProfileModel::kSmooth;

@@ -58,8 +58,8 @@ struct PeakPickingResult {
   // Mirror azimuth: midpoint of the peaks, or the single peak.
   double mirror_rad = 0.0;
   double mirror_stderr_rad = 0.0;
-  // Significance of the dip between the peaks, in standard errors
-  // (0 when there is no second peak).
+  // Significance of the split: the smaller of the two peaks' prominences,
+  // in pixel-noise standard errors (0 for a single peak).
   double dip_sigmas = 0.0;
   // Full width at half maximum of the single peak (SMOOTH only): a split
   // narrower than this could not be seen.
