@@ -6,6 +6,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "estimator/fit/profile_fit.h"
 #include "estimator/glints/glint_period.h"
 #include "estimator/profile/arc_signals.h"
 
@@ -193,6 +194,54 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
 
 }
 
+// `accurate` mode: least-squares fits of every candidate model to the
+// profile (smoothed as peak picking found necessary), the lowest BIC wins.
+void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
+               const EstimateOptions& options, Estimate* estimate) {
+  ProfileFitOptions fit_options;
+  fit_options.smoothing_rad = peaks.smoothing_rad;
+  fit_options.max_iterations = options.fit_max_iterations;
+  absl::StatusOr<ProfileFitResult> fits = FitProfileModels(
+      estimate->profile, acquisition.phase_angle_rad, acquisition.GetProjection(),
+      peaks.split_resolved ? peaks.max_slope : 0.2, fit_options);
+  if (!fits.ok() || fits->best < 0) {
+    estimate->warnings.push_back(absl::StrCat(
+        "model fit failed, peak picking kept: ",
+        fits.ok() ? std::string("no fit converged") : std::string(fits.status().message())));
+    return;
+  }
+  for (const ModelFit& f : fits->fits) {
+    estimate->candidates.push_back({f.model, "least-squares (BIC)", f.converged ? f.bic : 1e300, false});
+  }
+  const ModelFit& best = fits->fits[fits->best];
+  estimate->candidates[estimate->candidates.size() - 3 + fits->best].selected = true;
+  for (CandidateScore& c : estimate->candidates) {
+    if (c.method == "peak-picking") c.selected = false;
+  }
+  estimate->method = "least-squares";
+  estimate->model = best.model;
+  estimate->specular_azimuth_rad = {best.mirror_rad, best.mirror_stderr_rad, true};
+  if (best.model == ProfileModel::kSmooth) {
+    estimate->peak_spacing_rad = {};
+    estimate->max_slope = {};
+  } else {
+    // The fit's covariance does not see the comb of glints (its residuals
+    // are correlated): keep at least peak picking's error, which counts it.
+    const double spacing = PeakSpacingRad(best.max_slope);
+    const double fit_dspacing = 2.0 * best.max_slope_stderr / (1.0 + best.max_slope * best.max_slope);
+    const double dspacing = std::max(fit_dspacing, peaks.split_resolved ? peaks.spacing_stderr_rad : 0.0);
+    const double sec = 1.0 / std::cos(0.5 * spacing);
+    estimate->peak_spacing_rad = {spacing, dspacing, true};
+    estimate->max_slope = {best.max_slope, 0.5 * sec * sec * dspacing, true};
+    estimate->specular_azimuth_rad.stderr_value =
+        std::max(best.mirror_stderr_rad, peaks.mirror_stderr_rad);
+  }
+  estimate->warnings.push_back(
+      "accurate mode: the models were fitted by least squares and the lowest "
+      "BIC chosen; on a comb of glints the errors are peak picking's, which "
+      "count the comb");
+}
+
 absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                                const Acquisition& acquisition,
                                                const EstimateOptions& options,
@@ -267,6 +316,10 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
         estimate.profile.saturated_samples,
         " saturated pixels on the cylinder were left out of the profile; "
         "lower the exposure if they fall on the peaks"));
+  }
+  if (options.mode == Mode::kAccurate) {
+    FitModels(*peaks, acquisition, options, &estimate);
+    clock.Lap("fit");
   }
   EstimateWavelength(luminance, *cylinder, acquisition, *peaks,
                      estimate.profile.background_noise, options, &estimate);

@@ -44,6 +44,7 @@ struct EstimateOptions {
   ProfileOptions profile;
   PeakPickingOptions peaks;
   GlintPeriodOptions glints;
+  int fit_max_iterations = 100;  // accurate mode's least-squares fits
 
   absl::Status Validate() const;
 };

@@ -1,0 +1,229 @@
+#include "estimator/fit/profile_fit.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+
+namespace weavefit {
+namespace {
+
+// Parameters besides the max slope, in order: mirror azimuth (rad), blur σ
+// (rad), scale, background level, background slope (per rad), scatter level.
+constexpr int kNuisance = 6;
+// Floor added in quadrature to the blur, so that an unblurred caustic never
+// makes the model singular (0.02°).
+constexpr double kBlurFloorRad = 0.02 * M_PI / 180.0;
+
+// (model − observed)/σ for one azimuth bin of the (smoothed) profile. The
+// model is smoothed like the data: the fitted blur and the smoothing add in
+// quadrature (both Gaussian).
+struct ProfileSampleCost {
+  ProfileSampleCost(ProfileModel model, double phi, double value, double sigma,
+                    double alpha, double smoothing, double phi_center, double view)
+      : model_(model), phi_(phi), value_(value), sigma_(sigma), alpha_(alpha),
+        smoothing_(smoothing), phi_center_(phi_center), view_(view) {}
+
+  template <typename T>
+  bool operator()(const T* slope, const T* p, T* residual) const {
+    using std::cos;
+    using std::sqrt;
+    RadianceParams<T> rp;
+    rp.model = model_;
+    rp.max_slope = slope[0];
+    // The facet normal that mirrors the light into the camera is (α + v)/2
+    // (DESIGN.md §2): p[0] stands for α/2, v is this sample's view angle.
+    rp.mirror_rad = p[0] + T(0.5 * view_);
+    rp.blur_rad = sqrt(p[1] * p[1] + T(smoothing_ * smoothing_ + kBlurFloorRad * kBlurFloorRad));
+    rp.scale = p[2];
+    const T specular = SpecularRadiance(rp, T(phi_));
+    T scatter(0.0);
+    if (std::cos(phi_ - alpha_) > 0.0) {
+      scatter = p[5] * T(std::cos(alpha_ / 2.0) / std::max(std::cos(phi_), kMinCosAzimuth));
+    }
+    const T model = specular + p[3] + p[4] * T(phi_ - phi_center_) + scatter;
+    residual[0] = (model - T(value_)) / T(sigma_);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(ProfileModel model, double phi, double value, double sigma,
+                                     double alpha, double smoothing, double phi_center,
+                                     double view) {
+    return new ceres::AutoDiffCostFunction<ProfileSampleCost, 1, 1, kNuisance>(
+        new ProfileSampleCost(model, phi, value, sigma, alpha, smoothing, phi_center, view));
+  }
+
+  ProfileModel model_;
+  double phi_, value_, sigma_, alpha_, smoothing_, phi_center_, view_;
+};
+
+std::vector<double> Smooth(const std::vector<double>& v, double sigma_bins) {
+  if (sigma_bins < 0.3) return v;
+  const int half = static_cast<int>(std::ceil(3.0 * sigma_bins));
+  const int n = static_cast<int>(v.size());
+  std::vector<double> out(n);
+  for (int i = 0; i < n; ++i) {
+    double s = 0.0;
+    double w = 0.0;
+    for (int k = -half; k <= half; ++k) {
+      const int j = i + k;
+      if (j < 0 || j >= n) continue;
+      const double g = std::exp(-0.5 * k * k / (sigma_bins * sigma_bins));
+      s += g * v[j];
+      w += g;
+    }
+    out[i] = s / w;
+  }
+  return out;
+}
+
+}  // namespace
+
+absl::Status ProfileFitOptions::Validate() const {
+  if (!(smoothing_rad >= 0.0)) return absl::InvalidArgumentError("smoothing_rad must be >= 0");
+  if (!(margin_rad > 0.0)) return absl::InvalidArgumentError("margin_rad must be > 0");
+  if (max_iterations < 1) return absl::InvalidArgumentError("max_iterations must be >= 1");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
+                                                  double phase_angle_rad,
+                                                  const Projection& projection,
+                                                  double max_slope0,
+                                                  const ProfileFitOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  const int n = profile.NumBins();
+  if (n < 8) return absl::InvalidArgumentError("profile too short to fit");
+  const double bin = profile.bin_width_rad;
+  const double mirror0 = phase_angle_rad / 2.0;
+  const double reach = std::atan(std::max(max_slope0, 0.0)) + options.margin_rad +
+                       2.0 * options.smoothing_rad;
+  const double limit = 84.0 * M_PI / 180.0;
+  // The data: the profile smoothed like the model, with standard errors
+  // from the row blocks (they carry the comb's scatter), shrunk by the
+  // smoothing and floored by pixel noise.
+  const double sigma_bins = options.smoothing_rad / bin;
+  const std::vector<double> smoothed = Smooth(profile.mean, sigma_bins);
+  const double gain = sigma_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * sigma_bins) : 1.0;
+  std::vector<int> used;
+  int considered = 0;
+  for (int i = 0; i < n; ++i) {
+    const double phi = profile.azimuth_rad[i];
+    if (profile.count[i] <= 0.0 || std::fabs(phi - mirror0) > reach || std::fabs(phi) > limit) continue;
+    ++considered;
+    // Bins whose smoothing window holds any clipped pixel carry no level: a
+    // clipped glint is the brightest part of its bin, and leaving it out
+    // lowers the bin exactly where the caustics are.
+    bool clipped = false;
+    const int span = static_cast<int>(std::ceil(3.0 * sigma_bins)) + 1;
+    for (int k = std::max(0, i - span); k <= std::min(n - 1, i + span); ++k) {
+      const double total = profile.count[k] + profile.saturated[k];
+      if (total > 0 && profile.saturated[k] > 0.0) clipped = true;
+    }
+    if (clipped) continue;
+    used.push_back(i);
+  }
+  if (used.size() < 12) return absl::InvalidArgumentError("too few profile bins around the mirror azimuth to fit");
+  if (static_cast<int>(used.size()) < 0.7 * considered) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "only ", used.size(), " of ", considered,
+        " profile bins around the mirror azimuth are free of clipped pixels: too few to fit"));
+  }
+  auto sigma_of = [&](int i) {
+    const double noise = std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
+    return std::max(profile.stderr_mean[i], noise) * gain;
+  };
+  // Starting values: background from the window's ends, scale from the peak.
+  double lo_level = smoothed[used.front()];
+  double hi_level = smoothed[used.back()];
+  double peak = 0.0;
+  for (int i : used) peak = std::max(peak, smoothed[i] - std::min(lo_level, hi_level));
+
+  ProfileFitResult result;
+  const ProfileModel models[] = {ProfileModel::kSmooth, ProfileModel::kSinusoid, ProfileModel::kSawtooth};
+  for (ProfileModel model : models) {
+    ModelFit fit;
+    fit.model = model;
+    double slope[1] = {model == ProfileModel::kSmooth ? 0.0 : std::max(max_slope0, 0.02)};
+    double p[kNuisance] = {mirror0, 0.3 * M_PI / 180.0, 1.0, std::min(lo_level, hi_level), 0.0, 0.0};
+    // Scale so that the model's highest point matches the data's.
+    {
+      RadianceParams<double> rp;
+      rp.model = model;
+      rp.max_slope = slope[0];
+      rp.mirror_rad = mirror0;
+      rp.blur_rad = std::hypot(p[1], options.smoothing_rad);
+      double top = 0.0;
+      for (int i : used) top = std::max(top, SpecularRadiance(rp, profile.azimuth_rad[i]));
+      p[2] = top > 0 ? peak / top : 1.0;
+    }
+    ceres::Problem problem;
+    for (int i : used) {
+      problem.AddResidualBlock(
+          ProfileSampleCost::Create(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
+                                    phase_angle_rad, options.smoothing_rad, mirror0,
+                                    ViewAngleRad(profile.azimuth_rad[i], projection)),
+          new ceres::HuberLoss(3.0), slope, p);
+    }
+    if (model == ProfileModel::kSmooth) {
+      problem.SetParameterBlockConstant(slope);
+    } else {
+      problem.SetParameterLowerBound(slope, 0, 1e-3);
+      problem.SetParameterUpperBound(slope, 0, 3.0);
+    }
+    problem.SetParameterLowerBound(p, 0, mirror0 - 0.3);
+    problem.SetParameterUpperBound(p, 0, mirror0 + 0.3);
+    problem.SetParameterLowerBound(p, 2, 0.0);
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.max_num_iterations = options.max_iterations;
+    solver.num_threads = 1;
+    solver.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    fit.converged = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
+    if (!fit.converged) fit.message = summary.message;
+    fit.max_slope = slope[0];
+    fit.mirror_rad = p[0] + 0.5 * ViewAngleRad(p[0], projection);
+    fit.blur_rad = std::fabs(p[1]);
+    fit.num_residuals = static_cast<int>(used.size());
+    fit.num_params = kNuisance + (model == ProfileModel::kSmooth ? 0 : 1);
+    fit.chi2 = 2.0 * summary.final_cost;
+    fit.bic = fit.chi2 + fit.num_params * std::log(static_cast<double>(fit.num_residuals));
+    // Standard errors from the covariance, scaled by the reduced chi-square
+    // when the residuals say the noise model is too small.
+    ceres::Covariance::Options cov_options;
+    ceres::Covariance covariance(cov_options);
+    std::vector<std::pair<const double*, const double*>> blocks = {{p, p}};
+    if (model != ProfileModel::kSmooth) blocks.push_back({slope, slope});
+    if (fit.converged && covariance.Compute(blocks, &problem)) {
+      const int dof = std::max(fit.num_residuals - fit.num_params, 1);
+      const double inflate = std::max(1.0, fit.chi2 / dof);
+      double cp[kNuisance * kNuisance];
+      covariance.GetCovarianceBlock(p, p, cp);
+      fit.mirror_stderr_rad = std::sqrt(std::max(cp[0], 0.0) * inflate);
+      if (model != ProfileModel::kSmooth) {
+        double cs = 0.0;
+        covariance.GetCovarianceBlock(slope, slope, &cs);
+        fit.max_slope_stderr = std::sqrt(std::max(cs, 0.0) * inflate);
+      }
+    } else if (fit.converged) {
+      fit.converged = false;
+      fit.message = "covariance could not be computed (parameters not identifiable)";
+    }
+    result.fits.push_back(fit);
+  }
+  for (std::size_t i = 0; i < result.fits.size(); ++i) {
+    if (!result.fits[i].converged) continue;
+    if (result.best < 0 || result.fits[i].bic < result.fits[result.best].bic) {
+      result.best = static_cast<int>(i);
+    }
+  }
+  return result;
+}
+
+}  // namespace weavefit

@@ -1,0 +1,65 @@
+// Least-squares fits of the optical models (DESIGN.md §3) to the azimuthal
+// profile with Ceres: the whole lobe, not only its peaks, so that the band
+// between the peaks tells a sinusoid from a sawtooth. One fit per candidate
+// model; the candidates are compared by BIC. Ceres types stay in the .cc.
+#ifndef WEAVEFIT_ESTIMATOR_FIT_PROFILE_FIT_H_
+#define WEAVEFIT_ESTIMATOR_FIT_PROFILE_FIT_H_
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "estimator/cylinder/azimuth_mapping.h"
+#include "estimator/optics/radiance.h"
+#include "estimator/profile/profile_extraction.h"
+
+namespace weavefit {
+
+struct ProfileFitOptions {
+  // Gaussian smoothing (σ, rad) applied to the profile before the fit and,
+  // in quadrature with the fitted blur, to the model: set it to about half a
+  // thread period when the lobe is a comb of glints (0 = none).
+  double smoothing_rad = 0.0;
+  // The fitted window reaches this far beyond the starting caustics (rad).
+  double margin_rad = 6.0 * 3.14159265358979323846 / 180.0;
+  int max_iterations = 100;
+
+  absl::Status Validate() const;
+};
+
+// One candidate model fitted to the profile, in library units.
+struct ModelFit {
+  ProfileModel model = ProfileModel::kSmooth;
+  bool converged = false;
+  double max_slope = 0.0;
+  double max_slope_stderr = 0.0;
+  double mirror_rad = 0.0;
+  double mirror_stderr_rad = 0.0;
+  double blur_rad = 0.0;
+  double chi2 = 0.0;            // weighted sum of squared residuals
+  int num_residuals = 0;
+  int num_params = 0;
+  double bic = 0.0;             // chi2 + num_params·ln(num_residuals)
+  std::string message;          // the solver's word when not converged
+};
+
+struct ProfileFitResult {
+  std::vector<ModelFit> fits;   // SMOOTH, SINUSOID, SAWTOOTH
+  int best = -1;                // index of the lowest BIC among converged fits
+};
+
+// Fits SMOOTH, SINUSOID and SAWTOOTH to the profile around α/2, starting
+// from max_slope0 (e.g. peak picking's). Bins near clipped pixels are left
+// out. The standard errors come from the covariance scaled by the reduced
+// chi-square; they do not count the comb of glints (few weave phases in
+// view), whose residuals are correlated: callers must. INVALID_ARGUMENT for a
+// profile that cannot be fitted.
+absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
+                                                  double phase_angle_rad,
+                                                  const Projection& projection,
+                                                  double max_slope0,
+                                                  const ProfileFitOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_FIT_PROFILE_FIT_H_
