@@ -128,10 +128,14 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     used.push_back(i);
   }
   if (used.size() < 12) return absl::InvalidArgumentError("too few profile bins around the mirror azimuth to fit");
-  if (static_cast<int>(used.size()) < 0.7 * considered) {
+  if (static_cast<int>(used.size()) < considered) {
+    // Leaving clipped bins out can remove a caustic peak itself, and a
+    // censored likelihood is not implemented yet: no fit rather than a
+    // wrong one.
     return absl::InvalidArgumentError(absl::StrCat(
-        "only ", used.size(), " of ", considered,
-        " profile bins around the mirror azimuth are free of clipped pixels: too few to fit"));
+        considered - static_cast<int>(used.size()), " of ", considered,
+        " profile bins around the mirror azimuth hold clipped pixels: the fit "
+        "needs a censored likelihood (not implemented)"));
   }
   auto sigma_of = [&](int i) {
     const double noise = std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
