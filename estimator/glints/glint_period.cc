@@ -257,8 +257,8 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
   }
   // Plus the grid step as a uniform error, and a floor for what the model
   // leaves out (glints located on a pixel grid, a profile that is not an
-  // exact sinusoid, the blur's pull on glints beside the caustics): 0.5 %,
-  // about the spread seen between renders whose other terms are small.
+  // exact sinusoid, the blur's pull on glints beside the caustics): see
+  // GlintPeriodOptions::model_floor.
   result.wavelength_stderr_mm =
       std::sqrt(spread * spread + lean * lean + std::pow(0.0025 * lambda, 2) / 12.0 +
                 std::pow(options.model_floor * lambda, 2));

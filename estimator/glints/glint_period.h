@@ -38,8 +38,10 @@ struct GlintPeriodOptions {
   double min_ratio = 1.5;
   // The period found must fit this many times into the analysed arc.
   double min_periods_found = 2.5;
-  // Relative standard error always counted for what the model leaves out.
-  double model_floor = 0.005;
+  // Relative standard error always counted for what the model leaves out:
+  // over 19 noise draws of one sinusoid scene (λ 2 mm, 11 px per period) the
+  // estimates spread by 1.3 %, against 0.8 % reported with a 0.5 % floor.
+  double model_floor = 0.01;
   int bootstrap_samples = 40;
   std::uint32_t seed = 20030302;
 
