@@ -5,17 +5,11 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 
 namespace weavefit {
 namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const std::size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
-}
 
 struct LimbPoint {
   double row = 0.0;

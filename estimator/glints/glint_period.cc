@@ -6,17 +6,11 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "estimator/stats/median.h"
 #include "absl/strings/str_format.h"
 
 namespace weavefit {
 namespace {
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + v.size() / 2;
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 // One row's glints: arc position s = R·φ (mm) and the left-hand side of the
 // mirror equation, φ − (α + v(φ))/2 (rad).

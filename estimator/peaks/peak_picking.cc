@@ -5,6 +5,7 @@
 #include <random>
 
 #include "absl/status/status.h"
+#include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 
@@ -117,13 +118,6 @@ std::vector<int> SignificantMaxima(const std::vector<double>& s,
                               [&](int i) { return s[i] - baseline < options.min_peak_ratio * highest; }),
                maxima.end());
   return maxima;
-}
-
-double MedianOf(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + v.size() / 2;
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
 }
 
 // The highest local maximum within `radius` bins of `near`, refined.
@@ -274,8 +268,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // which takes out the background and, to first order, the slow rise of
   // the grazing scatter toward a limb.
   const int edge = std::max(3, (hi - lo) / 10);
-  const double base_lo = MedianOf(std::vector<double>(heavy.begin() + lo, heavy.begin() + lo + edge));
-  const double base_hi = MedianOf(std::vector<double>(heavy.begin() + hi - edge + 1, heavy.begin() + hi + 1));
+  const double base_lo = Median(std::vector<double>(heavy.begin() + lo, heavy.begin() + lo + edge));
+  const double base_hi = Median(std::vector<double>(heavy.begin() + hi - edge + 1, heavy.begin() + hi + 1));
   const double at_lo = lo + 0.5 * (edge - 1);
   const double at_hi = hi - 0.5 * (edge - 1);
   std::vector<double> baseline(n);
@@ -437,7 +431,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       std::sort(sorted.begin(), sorted.end());
       std::vector<double> gaps;
       for (std::size_t k = 1; k < sorted.size(); ++k) gaps.push_back((sorted[k] - sorted[k - 1]) * bin);
-      const double gap = MedianOf(gaps);
+      const double gap = Median(gaps);
       const double sigma_h = std::clamp(gap, 0.5 * kDeg, 3.0 * kDeg);
       const double mid = 0.5 * (left_index + right_index);
       auto heavy_peaks = [&](const std::vector<double>& profile_values, double* l, double* r) {

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "absl/status/status.h"
+#include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 
 namespace weavefit {
@@ -162,13 +163,9 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   }
 
   if (!outside.empty()) {
-    auto mid = outside.begin() + outside.size() / 2;
-    std::nth_element(outside.begin(), mid, outside.end());
-    profile.background = *mid;
+    profile.background = Median(outside);
     for (double& v : outside) v = std::fabs(v - profile.background);
-    mid = outside.begin() + outside.size() / 2;
-    std::nth_element(outside.begin(), mid, outside.end());
-    profile.background_noise = 1.4826 * *mid;
+    profile.background_noise = 1.4826 * Median(outside);  // robust sigma (MAD)
   }
 
   profile.mean.assign(num_bins, 0.0);
