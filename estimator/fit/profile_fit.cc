@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "absl/status/status.h"
+#include "estimator/stats/smooth.h"
 #include "absl/strings/str_cat.h"
 
 namespace weavefit {
@@ -60,26 +61,6 @@ struct ProfileSampleCost {
   ProfileModel model_;
   double phi_, value_, sigma_, alpha_, smoothing_, phi_center_, view_;
 };
-
-std::vector<double> Smooth(const std::vector<double>& v, double sigma_bins) {
-  if (sigma_bins < 0.3) return v;
-  const int half = static_cast<int>(std::ceil(3.0 * sigma_bins));
-  const int n = static_cast<int>(v.size());
-  std::vector<double> out(n);
-  for (int i = 0; i < n; ++i) {
-    double s = 0.0;
-    double w = 0.0;
-    for (int k = -half; k <= half; ++k) {
-      const int j = i + k;
-      if (j < 0 || j >= n) continue;
-      const double g = std::exp(-0.5 * k * k / (sigma_bins * sigma_bins));
-      s += g * v[j];
-      w += g;
-    }
-    out[i] = s / w;
-  }
-  return out;
-}
 
 }  // namespace
 

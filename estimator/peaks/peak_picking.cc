@@ -5,6 +5,7 @@
 #include <random>
 
 #include "absl/status/status.h"
+#include "estimator/stats/smooth.h"
 #include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -50,29 +51,6 @@ std::vector<double> MeanFromBlocks(const Profile& p,
   }
   for (int k = last + 1; k < n && last >= 0; ++k) mean[k] = mean[last];
   return mean;
-}
-
-std::vector<double> Smooth(const std::vector<double>& v, double sigma_bins) {
-  if (sigma_bins < 0.3) return v;
-  const int half = static_cast<int>(std::ceil(3.0 * sigma_bins));
-  std::vector<double> kernel(2 * half + 1);
-  for (int k = -half; k <= half; ++k) {
-    kernel[k + half] = std::exp(-0.5 * k * k / (sigma_bins * sigma_bins));
-  }
-  const int n = static_cast<int>(v.size());
-  std::vector<double> out(n);
-  for (int i = 0; i < n; ++i) {
-    double s = 0.0;
-    double w = 0.0;
-    for (int k = -half; k <= half; ++k) {
-      const int j = i + k;
-      if (j < 0 || j >= n) continue;
-      s += kernel[k + half] * v[j];
-      w += kernel[k + half];
-    }
-    out[i] = s / w;
-  }
-  return out;
 }
 
 // Sub-bin position of a maximum at index i, by a parabola through i−1..i+1.

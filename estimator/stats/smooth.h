@@ -1,0 +1,37 @@
+// Gaussian smoothing of a uniformly sampled series (profiles in azimuth).
+#ifndef WEAVEFIT_ESTIMATOR_STATS_SMOOTH_H_
+#define WEAVEFIT_ESTIMATOR_STATS_SMOOTH_H_
+
+#include <cmath>
+#include <vector>
+
+namespace weavefit {
+
+// Convolves v with a Gaussian of sigma_bins samples (truncated at 3 σ),
+// renormalised at the ends; below 0.3 samples v is returned as it is.
+inline std::vector<double> Smooth(const std::vector<double>& v, double sigma_bins) {
+  if (sigma_bins < 0.3) return v;
+  const int half = static_cast<int>(std::ceil(3.0 * sigma_bins));
+  std::vector<double> kernel(2 * half + 1);
+  for (int k = -half; k <= half; ++k) {
+    kernel[k + half] = std::exp(-0.5 * k * k / (sigma_bins * sigma_bins));
+  }
+  const int n = static_cast<int>(v.size());
+  std::vector<double> out(n);
+  for (int i = 0; i < n; ++i) {
+    double s = 0.0;
+    double w = 0.0;
+    for (int k = -half; k <= half; ++k) {
+      const int j = i + k;
+      if (j < 0 || j >= n) continue;
+      s += kernel[k + half] * v[j];
+      w += kernel[k + half];
+    }
+    out[i] = s / w;
+  }
+  return out;
+}
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_STATS_SMOOTH_H_
