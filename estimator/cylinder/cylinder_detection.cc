@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "estimator/cylinder/terminator.h"
 #include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 
@@ -271,6 +272,9 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
 
   const Line left = FitLimbLine(left_points, center_row);
   const Line right = FitLimbLine(right_points, center_row);
+  // The lines the geometry was last computed from.
+  Line final_left = left;
+  Line final_right = right;
   CylinderGeometry g;
   g.center_row_px = center_row;
   g.center_x_px = 0.5 * (left.at_center + right.at_center);
@@ -302,25 +306,6 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
           "no cylinder found: only ", on, " of ", total, " columns between the two "
           "edges differ from the background; a body as dark as the background "
           "shows only its glints (light it, or darken the background)"));
-    }
-  }
-  // With the phase angle known, the lobe must stand near the mirror azimuth.
-  if (std::isfinite(options.phase_angle_rad)) {
-    const double half = g.radius_px / std::cos(g.axis_angle_rad);
-    const double xc = BrightestCentroid(mean_profile, region.x, g.center_x_px - 0.9 * half,
-                                        g.center_x_px + 0.9 * half);
-    if (std::isfinite(xc)) {
-      const double phi = AzimuthFromOffset(std::clamp((xc - g.center_x_px) / half, -1.0, 1.0),
-                                           options.projection);
-      const double miss = std::fabs(phi - options.phase_angle_rad / 2.0);
-      if (miss > options.max_lobe_offset_rad) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "no cylinder found consistent with the phase angle: the brightest part of "
-            "what was found lies at azimuth ", std::lround(phi * 180.0 / M_PI),
-            " deg, not near half the phase angle (", std::lround(options.phase_angle_rad * 90.0 / M_PI),
-            " deg); check the phase angle and its sign (positive = light on the image's "
-            "right), or a limb may be lost in darkness (not inferred yet)"));
-      }
     }
   }
   // Usable rows: from the first to the last band whose limbs agree with the
@@ -371,10 +356,134 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   if (inner_left.size() >= 3 && inner_left.size() < left_points.size()) {
     const Line l = FitLimbLine(inner_left, center_row);
     const Line r = FitLimbLine(inner_right, center_row);
+    final_left = l;
+    final_right = r;
     g.center_x_px = 0.5 * (l.at_center + r.at_center);
     g.axis_angle_rad = std::atan(-0.5 * (l.slope + r.slope));
     g.radius_px = 0.5 * (r.at_center - l.at_center) * std::cos(g.axis_angle_rad);
     g.limb_rms_px = std::sqrt(0.5 * (l.rms * l.rms + r.rms * r.rms));
+  }
+  // With the phase angle known, the lobe must stand near the mirror azimuth
+  // α/2. When it does not, the edge on the side away from the light may be
+  // the terminator, the limb beyond it lost in darkness: infer that limb
+  // (terminator.h) and keep the cylinder whose lobe stands at α/2.
+  if (std::isfinite(options.phase_angle_rad)) {
+    const double half_alpha = options.phase_angle_rad / 2.0;
+    auto lobe_azimuth = [&](const CylinderGeometry& c) {
+      const double half = c.radius_px / std::cos(c.axis_angle_rad);
+      const double xc = BrightestCentroid(mean_profile, region.x, c.center_x_px - 0.9 * half,
+                                          c.center_x_px + 0.9 * half);
+      if (!std::isfinite(xc)) return half_alpha;
+      return AzimuthFromOffset(std::clamp((xc - c.center_x_px) / half, -1.0, 1.0),
+                               options.projection);
+    };
+    // The part of the disc in shadow, from the unlit limb to the terminator
+    // φ_T = α − sign(α)·90° (with a margin for blur and the tilt's smear of
+    // the column means), can only show the body's ambient level: no
+    // Lambertian, scatter or glint reaches it (DESIGN.md §3). A rise there
+    // means the edge taken for the unlit limb is the terminator or beyond.
+    auto shadow_is_flat = [&](const CylinderGeometry& c) {
+      const int side = options.phase_angle_rad > 0 ? 1 : -1;
+      const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
+      const double half = c.radius_px / std::cos(c.axis_angle_rad);
+      const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
+      const double margin = 3.0 * M_PI / 180.0;
+      const double x_dark = c.center_x_px - side * half;
+      const double x_term = c.center_x_px + OffsetFromAzimuth(phi_t - side * margin, options.projection) * half;
+      const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_term) + smear)) - region.x;
+      const int hi = static_cast<int>(std::floor(std::max(x_dark, x_term) - smear)) - region.x;
+      if (hi - lo < 4) return true;
+      std::vector<double> values;
+      for (int x = std::max(lo, 2); x <= std::min(hi, region.width - 3); ++x) {
+        double v = 0.0;
+        for (int k = -2; k <= 2; ++k) v += mean_profile[x + k];
+        values.push_back(v / 5.0);
+      }
+      if (values.size() < 4) return true;
+      std::sort(values.begin(), values.end());
+      const double range = values[values.size() * 95 / 100] - values[values.size() * 5 / 100];
+      // The scale: the surface's typical level over the disc (a maximum
+      // would be a clipped glint's).
+      std::vector<double> disc;
+      for (int x = static_cast<int>(std::ceil(c.center_x_px - half)) - region.x;
+           x <= static_cast<int>(std::floor(c.center_x_px + half)) - region.x; ++x) {
+        if (x >= 0 && x < region.width) disc.push_back(std::fabs(mean_profile[x] - background));
+      }
+      const double typical = disc.empty() ? 0.0 : Median(disc);
+      const double column_noise = noise / std::sqrt(5.0 * region.height);
+      return range < 0.25 * typical + 6.0 * column_noise;
+    };
+    // Just inside the unlit limb the surface is in shadow (|α| ≥ 20°): its
+    // pixels vary across rows by the noise and the cloth's texture, not by
+    // the comb of glints an edge of the specular lobe shows.
+    auto unlit_edge_is_smooth = [&](const CylinderGeometry& c) {
+      if (std::fabs(options.phase_angle_rad) < 20.0 * M_PI / 180.0) return true;
+      const int side = options.phase_angle_rad > 0 ? 1 : -1;
+      const double half = c.radius_px / std::cos(c.axis_angle_rad);
+      std::vector<double> spreads;
+      std::vector<double> levels;
+      for (int k = 1; k <= 5; ++k) {
+        double sum = 0.0;
+        double sum_sq = 0.0;
+        int n = 0;
+        for (int y = c.top_row; y <= c.bottom_row; ++y) {
+          const int x = static_cast<int>(std::lround(c.AxisColumn(y) - side * (half - k)));
+          if (x < 0 || x >= luminance.width) continue;
+          const double v = luminance.At(x, y);
+          sum += v;
+          sum_sq += v * v;
+          ++n;
+        }
+        if (n < 3) continue;
+        const double mean = sum / n;
+        spreads.push_back(std::sqrt(std::max(0.0, sum_sq / n - mean * mean)));
+        levels.push_back(std::fabs(mean - background));
+      }
+      if (spreads.empty()) return true;
+      return Median(spreads) < 4.0 * noise + 0.3 * Median(levels);
+    };
+    const double phi = lobe_azimuth(g);
+    const double miss = std::fabs(phi - half_alpha);
+    const bool flat = shadow_is_flat(g) && unlit_edge_is_smooth(g);
+    std::string why_not_inferred;
+    if (miss > options.min_lobe_offset_to_infer_rad || !flat) {
+      // The edge away from the light may be a soft terminator: the tilt is
+      // the lit limb's alone.
+      const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
+      const Line& other = options.phase_angle_rad > 0 ? final_left : final_right;
+      CylinderGeometry edges = g;
+      edges.axis_angle_rad = std::atan(-lit.slope);
+      edges.center_x_px = 0.5 * (lit.at_center + other.at_center);
+      edges.radius_px = 0.5 * std::fabs(lit.at_center - other.at_center) * std::cos(edges.axis_angle_rad);
+      absl::StatusOr<CylinderGeometry> inferred = InferDarkLimb(
+          luminance, edges, options.phase_angle_rad, options.projection, {background, noise});
+      if (inferred.ok()) {
+        const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
+        if ((!flat || inferred_miss < 0.5 * miss) && inferred_miss <= options.min_lobe_offset_to_infer_rad) {
+          return *inferred;
+        }
+        why_not_inferred = absl::StrCat(
+            "; with the unlit edge taken as the terminator the lobe lies at ",
+            std::lround(lobe_azimuth(*inferred) * 180.0 / M_PI), " deg");
+      } else {
+        why_not_inferred = absl::StrCat("; no dark limb could be inferred: ",
+                                        inferred.status().message());
+      }
+    }
+    if (!flat) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "no cylinder found consistent with the phase angle: the surface between the edge "
+          "away from the light and the terminator (", std::lround(options.phase_angle_rad * 180.0 / M_PI),
+          " deg light) is not dark, so that edge is not a limb", why_not_inferred));
+    }
+    if (miss > options.max_lobe_offset_rad) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "no cylinder found consistent with the phase angle: the brightest part of "
+          "what was found lies at azimuth ", std::lround(phi * 180.0 / M_PI),
+          " deg, not near half the phase angle (", std::lround(half_alpha * 180.0 / M_PI),
+          " deg); check the phase angle and its sign (positive = light on the image's "
+          "right)", why_not_inferred));
+    }
   }
   return g;
 }

@@ -26,8 +26,8 @@ struct CylinderGeometry {
   // Usable surface rows, inclusive.
   int top_row = 0;
   int bottom_row = 0;
-  // False when that limb was inferred (lost in darkness), not seen. This
-  // version does not infer limbs yet: both are always observed.
+  // False when that limb was inferred (lost in darkness beyond the
+  // terminator), not seen.
   bool left_observed = false;
   bool right_observed = false;
   // RMS distance of the per-band limb points from the fitted lines.
@@ -64,11 +64,18 @@ struct CylinderDetectionOptions {
   double min_radius_px = 8.0;
   PixelRegion region;
   // Phase angle (rad) when known: the brightest part of the surface must
-  // then lie within max_lobe_offset_rad of the mirror azimuth α/2, or the
-  // edges found are not the limbs (a limb lost in darkness leaves only the
-  // lit lobe to find) and detection fails rather than mislead. NaN = unknown.
+  // then lie within max_lobe_offset_rad of the mirror azimuth α/2, and the
+  // part of the disc in shadow (beyond the terminator α − sign(α)·90°) must
+  // be dark and free of glints. When the lobe lies more than
+  // min_lobe_offset_to_infer_rad away or the shadow is lit, the edge away
+  // from the light is tried as the terminator, with the limb beyond it lost
+  // in darkness and inferred (terminator.h); that cylinder is kept when its
+  // lobe lies within min_lobe_offset_to_infer_rad of α/2. Otherwise
+  // detection fails rather than mislead. NaN = unknown: no check, no
+  // inference.
   double phase_angle_rad = std::numeric_limits<double>::quiet_NaN();
   double max_lobe_offset_rad = 40.0 * 3.14159265358979323846 / 180.0;
+  double min_lobe_offset_to_infer_rad = 10.0 * 3.14159265358979323846 / 180.0;
   Projection projection;  // for the lobe's azimuth
 
   absl::Status Validate() const;

@@ -258,8 +258,14 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
   if (!cylinder.ok()) return cylinder.status();
   estimate.cylinder = *cylinder;
+  if (!cylinder->left_observed || !cylinder->right_observed) {
+    estimate.warnings.push_back(absl::StrCat(
+        "the ", cylinder->left_observed ? "right" : "left",
+        " limb is lost in darkness and was inferred from the lit limb and the terminator "
+        "(expect it within about 2 px, up to 4 px when the Lambertian and grazing-scatter "
+        "terms are comparable there); light the body or darken the background to see it"));
+  }
   clock.Lap("detect");
-
 
   const Projection projection = acquisition.GetProjection();
   absl::StatusOr<Profile> profile =
