@@ -327,9 +327,15 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     FitModels(*peaks, acquisition, options, &estimate);
     clock.Lap("fit");
   }
-  EstimateWavelength(luminance, *cylinder, acquisition, *peaks,
-                     estimate.profile.background_noise, options, &estimate);
-  clock.Lap("glints");
+  if (options.mode == Mode::kFast) {
+    estimate.warnings.push_back(
+        "wavelength and amplitude not analysed: fast mode reads the profile's peaks only "
+        "(use balanced or accurate for the thread period)");
+  } else {
+    EstimateWavelength(luminance, *cylinder, acquisition, *peaks,
+                       estimate.profile.background_noise, options, &estimate);
+    clock.Lap("glints");
+  }
   estimate.timings = clock.laps();
   return estimate;
 }

@@ -35,6 +35,9 @@ struct Acquisition {
   }
 };
 
+// kFast: peak picking on the profile only (no wavelength); kBalanced: peak
+// picking and the wavelength from the glints; kAccurate: besides, a
+// least-squares fit of every candidate model, the lowest BIC chosen.
 enum class Mode { kFast = 1, kBalanced = 2, kAccurate = 3 };
 
 struct EstimateOptions {

@@ -137,6 +137,26 @@ TEST(EstimateTest, FromImageMatchesFromBytes) {
   EXPECT_NEAR(from_image->cylinder.center_x_px, from_bytes->cylinder.center_x_px, 0.01);
 }
 
+// Fast mode: the same peaks, no glint stage, the wavelength left unanalysed
+// and said so.
+TEST(EstimateTest, FastModeReadsThePeaksOnly) {
+  const Rendered& r = SinusoidRender();
+  EstimateOptions fast;
+  fast.mode = Mode::kFast;
+  absl::StatusOr<Estimate> quick = EstimateFromImage(r.image, Lab(), fast);
+  absl::StatusOr<Estimate> balanced = EstimateFromImage(r.image, Lab(), EstimateOptions());
+  ASSERT_TRUE(quick.ok()) << quick.status();
+  ASSERT_TRUE(balanced.ok()) << balanced.status();
+  EXPECT_EQ(Stages(*quick), (std::vector<std::string>{"detect", "profile", "peaks"}));
+  EXPECT_EQ(quick->model, balanced->model);
+  EXPECT_EQ(quick->peak_spacing_rad.value, balanced->peak_spacing_rad.value);
+  EXPECT_FALSE(quick->wavelength_mm.resolved);
+  EXPECT_FALSE(quick->amplitude_mm.resolved);
+  bool said = false;
+  for (const std::string& w : quick->warnings) said = said || w.find("fast mode") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
 TEST(EstimateTest, FromRgbImageUsesLuminance) {
   const Rendered& r = SinusoidRender();
   Image rgb = r.image;
