@@ -20,8 +20,9 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kBinPx = 0.25;     // profile bins across the terminator
 constexpr int kSubSamples = 8;      // per pixel width, for its footprint
 // The fit window: this far into the dark side of the terminator, and toward
-// the light at most 8°, ending a pixel short of the first glints, and at
-// least kMinLitWindowPx past the edge.
+// the light at most kLitWindowMaxRad and not beyond the mirror azimuth,
+// ending a pixel short of the first glints, and at least kMinLitWindowPx
+// past the edge.
 constexpr double kDarkWindowRad = 15.0 * kDeg;
 constexpr double kLitWindowMaxRad = 20.0 * kDeg;
 constexpr double kGlintRoughness = 0.15;

@@ -26,11 +26,11 @@ struct BackgroundLevel {
 // The terminator is located to a fraction of a pixel by fitting the surface
 // radiance there, across the rows between edges.top_row and bottom_row, up
 // to where the glints begin, as background + D·max(0, cos(φ − α)) (the
-// Lambertian term of DESIGN.md §3) or background + S·[cos(φ − α) > 0]·
-// cos(α/2)/cos φ (the grazing scatter), whichever fits better, each pixel
-// integrated over its width, for radii around the first guess. Fails with
-// INVALID_ARGUMENT when no such terminator explains the edge: no lit term,
-// glints right at the edge, or a residual far above the noise.
+// Lambertian term of DESIGN.md §3) and/or S·[cos(φ − α) > 0]·cos(α/2)/cos φ
+// (the grazing scatter), the second term only when it pays for itself (BIC),
+// each pixel integrated over its width, for radii around the first guess.
+// Fails with INVALID_ARGUMENT when no such terminator explains the edge: no
+// lit term, glints right at the edge, or a residual far above the noise.
 absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
                                                const CylinderGeometry& edges,
                                                double phase_angle_rad,
