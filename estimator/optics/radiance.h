@@ -28,6 +28,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include <ceres/jet.h>
 
@@ -85,6 +87,32 @@ T SinusoidTiltDensity(const T& beta, const T& max_slope, const T& blur_rad) {
     sum += GaussianDensity(T(beta - atan(max_slope * sin(theta))), blur_rad);
   }
   return sum / T(n);
+}
+
+// The same for plain doubles, the hot path of peak picking's corrections:
+// the node tilts arctan(m·sin θ) depend on m only, so the last m's are kept
+// per thread, and nodes beyond 9σ (a Gaussian factor below 3e-18) are
+// skipped. Equal to the template to rounding.
+inline double SinusoidTiltDensity(const double& beta, const double& max_slope,
+                                  const double& blur_rad) {
+  const double kPi = 3.14159265358979323846;
+  const int n = SinusoidQuadratureNodes(max_slope, blur_rad);
+  thread_local std::vector<double> tilts;
+  thread_local double cached_slope = std::numeric_limits<double>::quiet_NaN();
+  if (!(max_slope == cached_slope) || static_cast<int>(tilts.size()) != n) {
+    tilts.resize(n);
+    for (int i = 0; i < n; ++i) {
+      tilts[i] = std::atan(max_slope * std::sin(2.0 * kPi * (i + 0.5) / n));
+    }
+    cached_slope = max_slope;
+  }
+  const double reach = 9.0 * blur_rad;
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double d = beta - tilts[i];
+    if (std::fabs(d) < reach) sum += GaussianDensity(d, blur_rad);
+  }
+  return sum / n;
 }
 
 // Blurred tilt density of a symmetric sawtooth: half the facets at
