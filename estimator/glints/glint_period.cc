@@ -177,6 +177,13 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
 
   // Position tolerance: a pixel and a half at the axis, in azimuth.
   const double pixel_rad = model.mm_per_px / signals.radius_mm;
+  // The tolerance is also at least half the miss a phase grid of `phases`
+  // steps allows (m·π/phases): on large images a pixel is far finer than
+  // the phase grid, and a tolerance of pixels would count a glint only when
+  // a grid phase happens to hit it.
+  auto tolerance = [&](double pixels, int phases) {
+    return std::max(pixels * pixel_rad, 0.5 * model.max_slope * M_PI / phases);
+  };
   const double m = model.max_slope;
   auto total_score = [&](double lambda, double sigma, int phases) {
     double sum = 0.0;
@@ -192,7 +199,7 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
     double sum = 0.0;
     int count = 0;
     for (std::size_t r = 0; r < rows.size(); r += 2) {
-      sum += RowScore(rows[r], 2.0 * M_PI / lambda, m, 2.0 * pixel_rad, 32);
+      sum += RowScore(rows[r], 2.0 * M_PI / lambda, m, tolerance(2.0, 32), 32);
       count += static_cast<int>(rows[r].s_mm.size());
     }
     const double score = sum / std::max(count, 1);
@@ -201,15 +208,15 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
       best_lambda = lambda;
     }
   }
-  // Fine: 0.2 % steps around it, finer phases, per-row scores kept for the
-  // bootstrap.
+  // Fine: 0.2 % steps within ±4 % of it, finer phases, per-row scores kept
+  // for the bootstrap.
   std::vector<double> fine;
-  for (double f = 0.96; f <= 1.04 + 1e-9; f += 0.002) fine.push_back(best_lambda * f);
+  for (int i = -20; i <= 20; ++i) fine.push_back(best_lambda * (1.0 + 0.002 * i));
   std::vector<std::vector<double>> per_row(rows.size(), std::vector<double>(fine.size()));
   std::vector<double> fine_total(fine.size(), 0.0);
   for (std::size_t r = 0; r < rows.size(); ++r) {
     for (std::size_t i = 0; i < fine.size(); ++i) {
-      per_row[r][i] = RowScore(rows[r], 2.0 * M_PI / fine[i], m, 1.5 * pixel_rad, 96);
+      per_row[r][i] = RowScore(rows[r], 2.0 * M_PI / fine[i], m, tolerance(1.5, 96), 96);
       fine_total[i] += per_row[r][i];
     }
   }
@@ -217,8 +224,8 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
       std::max_element(fine_total.begin(), fine_total.end()) - fine_total.begin();
   const double lambda = fine[best_i];
   result.explained = fine_total[best_i] / total;
-  const double half = total_score(0.5 * lambda, 1.5 * pixel_rad, 96);
-  const double twice = 2.0 * lambda <= longest_mm * 1.5 ? total_score(2.0 * lambda, 1.5 * pixel_rad, 96) : 0.0;
+  const double half = total_score(0.5 * lambda, tolerance(1.5, 96), 96);
+  const double twice = 2.0 * lambda <= longest_mm * 1.5 ? total_score(2.0 * lambda, tolerance(1.5, 96), 96) : 0.0;
   if (total < options.min_glints || result.explained < options.min_explained ||
       result.explained < options.min_ratio * std::max(half, twice) ||
       lambda > window_mm / options.min_periods_found) {
@@ -255,10 +262,10 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
     auto best_near = [&](double slope) {
       double best = -1.0;
       double at = lambda;
-      for (double f = 0.95; f <= 1.05 + 1e-9; f += 0.0025) {
+      for (double f = 0.975; f <= 1.025 + 1e-9; f += 0.0025) {
         double sum = 0.0;
         for (const RowGlints& row : rows) {
-          sum += RowScore(row, 2.0 * M_PI / (lambda * f), slope, 1.5 * pixel_rad, 48);
+          sum += RowScore(row, 2.0 * M_PI / (lambda * f), slope, tolerance(1.5, 48), 48);
         }
         if (sum > best) {
           best = sum;

@@ -2,12 +2,15 @@
 
 #include <cmath>
 
+#include <opencv2/core.hpp>
+
 namespace weavefit {
 
 std::int64_t Image::SaturatedCount() const {
-  std::int64_t count = 0;
-  for (std::uint8_t s : saturated) count += s != 0;
-  return count;
+  if (saturated.empty()) return 0;
+  // OpenCV's vectorised count (a plain loop costs ~5 ms at 12 Mpx).
+  const cv::Mat mask(height, width, CV_8U, const_cast<std::uint8_t*>(saturated.data()));
+  return cv::countNonZero(mask);
 }
 
 Image Luminance(const Image& image) {

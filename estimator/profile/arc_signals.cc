@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 
 namespace weavefit {
 
 absl::Status ArcSignalOptions::Validate() const {
+  if (max_rows < 0) return absl::InvalidArgumentError("max_rows must be >= 0");
   if (!(to_rad > from_rad) || !std::isfinite(from_rad) || !std::isfinite(to_rad)) {
     return absl::InvalidArgumentError("arc signal range must have from_rad < to_rad");
   }
@@ -38,7 +41,36 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
   for (int k = 0; k < out.num_samples; ++k) {
     dx[k] = OffsetFromAzimuth(out.first_azimuth_rad + k * out.step_rad, projection) * horizontal;
   }
-  for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) out.rows.push_back(y);
+  const int usable = geometry.bottom_row - geometry.top_row + 1;
+  if (options.max_rows > 0 && usable > options.max_rows) {
+    // Glints line up along thread crests, a few rows of each thread: keep
+    // the rows whose pixels over the range vary most (one pass over the raw
+    // pixels), in image order.
+    std::vector<std::pair<double, int>> spread;
+    spread.reserve(usable);
+    const double lo = std::min(dx.front(), dx.back());
+    const double hi = std::max(dx.front(), dx.back());
+    for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) {
+      const double axis = geometry.AxisColumn(y);
+      const int x0 = std::clamp(static_cast<int>(std::floor(axis + lo)), 0, luminance.width - 1);
+      const int x1 = std::clamp(static_cast<int>(std::ceil(axis + hi)), 0, luminance.width - 1);
+      const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
+      double sum = 0.0;
+      double sum_sq = 0.0;
+      for (int x = x0; x <= x1; ++x) {
+        sum += row[x];
+        sum_sq += static_cast<double>(row[x]) * row[x];
+      }
+      const int n = x1 - x0 + 1;
+      spread.push_back({sum_sq - sum * sum / n, y});
+    }
+    std::nth_element(spread.begin(), spread.begin() + options.max_rows, spread.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (int i = 0; i < options.max_rows; ++i) out.rows.push_back(spread[i].second);
+    std::sort(out.rows.begin(), out.rows.end());
+  } else {
+    for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) out.rows.push_back(y);
+  }
   out.values.assign(out.rows.size() * out.num_samples, 0.0f);
   out.valid.assign(out.values.size(), 1);
   for (std::size_t r = 0; r < out.rows.size(); ++r) {

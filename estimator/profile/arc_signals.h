@@ -34,6 +34,9 @@ struct ArcSignalOptions {
   double to_rad = 0.0;
   // Grid step; 0 = half a pixel at the axis (0.5 / radius_px).
   double step_rad = 0.0;
+  // At most this many rows: those whose pixels over the range vary most
+  // (glints follow thread crests); 0 = all usable rows.
+  int max_rows = 0;
 
   absl::Status Validate() const;
 };

@@ -88,17 +88,23 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   constexpr int kSubpixel = 32;
   std::vector<Footprints> footprints(kSubpixel);
   const int half_span = static_cast<int>(std::ceil(geometry.radius_px * reach)) + 2;
+  const int width = 2 * half_span + 1;
+  struct ColumnSums {
+    std::vector<double> sum;        // per block and column offset
+    std::vector<double> count;      // unmasked pixels
+    std::vector<double> saturated;  // masked pixels
+  };
+  std::vector<ColumnSums> column_sums(kSubpixel);
   std::vector<double> outside;
   for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) {
     const int block = static_cast<int>(
         static_cast<long long>(y - geometry.top_row) * options.num_blocks / rows);
-    double* sums = &profile.block_sum[static_cast<std::size_t>(block) * num_bins];
-    double* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
     const double axis = geometry.AxisColumn(y);
     // Background samples: beyond 1.15 radii, every 4th pixel of every 4th row.
     if ((y - geometry.top_row) % 4 == 0) {
+      const double beyond = 1.15 * geometry.radius_px / cos_tilt;  // px from the axis
       for (int x = 0; x < luminance.width; x += 4) {
-        if (std::fabs(geometry.NormalisedOffset(x, y)) > 1.15 && !luminance.IsSaturated(x, y)) {
+        if (std::fabs(x - axis) > beyond && !luminance.IsSaturated(x, y)) {
           outside.push_back(luminance.At(x, y));
         }
       }
@@ -137,6 +143,15 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
       }
       fp.start[2 * half_span + 1] = static_cast<int>(fp.bins.size());
     }
+    // Pixels are summed per column offset first (one add each); the sums
+    // are spread over their footprints once at the end, per table and block.
+    ColumnSums& cs = column_sums[key];
+    if (cs.sum.empty()) {
+      cs.sum.assign(static_cast<std::size_t>(options.num_blocks) * width, 0.0);
+      cs.count.assign(cs.sum.size(), 0.0);
+      cs.saturated.assign(cs.sum.size(), 0.0);
+    }
+    const std::size_t at0 = static_cast<std::size_t>(block) * width + half_span;
     const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
     const std::uint8_t* mask = luminance.saturated.empty()
                                    ? nullptr
@@ -144,20 +159,46 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     const int b0 = static_cast<int>(base);
     const int dx_lo = std::max(-half_span, -b0);
     const int dx_hi = std::min(half_span, luminance.width - 1 - b0);
-    for (int dx = dx_lo; dx <= dx_hi; ++dx) {
-      const int from = fp.start[dx + half_span];
-      const int to = fp.start[dx + half_span + 1];
-      if (from == to) continue;
-      const int x = b0 + dx;
-      if (mask != nullptr && mask[x]) {
-        ++profile.saturated_samples;
-        for (int j = from; j < to; ++j) profile.saturated[fp.bins[j]] += fp.weights[j];
-        continue;
+    double* sum = cs.sum.data() + at0;
+    double* count = cs.count.data() + at0;
+    double* saturated = cs.saturated.data() + at0;
+    if (mask == nullptr) {
+      for (int dx = dx_lo; dx <= dx_hi; ++dx) {
+        sum[dx] += row[b0 + dx];
+        count[dx] += 1.0;
       }
-      const double value = row[x];
-      for (int j = from; j < to; ++j) {
-        sums[fp.bins[j]] += fp.weights[j] * value;
-        counts[fp.bins[j]] += fp.weights[j];
+    } else {
+      for (int dx = dx_lo; dx <= dx_hi; ++dx) {
+        if (mask[b0 + dx]) {
+          saturated[dx] += 1.0;
+        } else {
+          sum[dx] += row[b0 + dx];
+          count[dx] += 1.0;
+        }
+      }
+    }
+  }
+  for (int key = 0; key < kSubpixel; ++key) {
+    const ColumnSums& cs = column_sums[key];
+    if (cs.sum.empty()) continue;
+    const Footprints& fp = footprints[key];
+    for (int block = 0; block < options.num_blocks; ++block) {
+      double* sums = &profile.block_sum[static_cast<std::size_t>(block) * num_bins];
+      double* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
+      for (int dx = -half_span; dx <= half_span; ++dx) {
+        const int from = fp.start[dx + half_span];
+        const int to = fp.start[dx + half_span + 1];
+        if (from == to) continue;
+        const std::size_t at = static_cast<std::size_t>(block) * width + dx + half_span;
+        const double sum = cs.sum[at];
+        const double count = cs.count[at];
+        const double saturated = cs.saturated[at];
+        profile.saturated_samples += static_cast<int>(saturated);
+        for (int j = from; j < to; ++j) {
+          sums[fp.bins[j]] += fp.weights[j] * sum;
+          counts[fp.bins[j]] += fp.weights[j] * count;
+          profile.saturated[fp.bins[j]] += fp.weights[j] * saturated;
+        }
       }
     }
   }
