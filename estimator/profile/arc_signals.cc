@@ -77,13 +77,16 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
     const int y = out.rows[r];
     const double axis = geometry.AxisColumn(y);
     const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
+    const std::uint8_t* mask =
+        luminance.saturated.empty() ? nullptr
+                                    : &luminance.saturated[static_cast<std::size_t>(y) * luminance.width];
     for (int k = 0; k < out.num_samples; ++k) {
       const double x = axis + dx[k];
       const int x0 = std::clamp(static_cast<int>(std::floor(x)), 0, luminance.width - 2);
       const double t = std::clamp(x - x0, 0.0, 1.0);
       const std::size_t at = r * out.num_samples + k;
       out.values[at] = static_cast<float>((1.0 - t) * row[x0] + t * row[x0 + 1]);
-      if (luminance.IsSaturated(x0, y) || luminance.IsSaturated(x0 + 1, y)) out.valid[at] = 0;
+      if (mask != nullptr && (mask[x0] || mask[x0 + 1])) out.valid[at] = 0;
     }
   }
   return out;

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+
+#include <opencv2/imgproc.hpp>
 
 #include "absl/status/status.h"
 #include "estimator/stats/median.h"
@@ -93,21 +96,28 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     std::vector<double> sum;        // per block and column offset
     std::vector<double> count;      // unmasked pixels
     std::vector<double> saturated;  // masked pixels
+    // Rows without a masked pixel count 1 over their whole span: kept as a
+    // difference array per block (width + 1 entries), added at the end.
+    std::vector<double> span_diff;
   };
   std::vector<ColumnSums> column_sums(kSubpixel);
   std::vector<double> outside;
+  const int background_row_step = std::max(4, rows / 256);
   for (int y = geometry.top_row; y <= geometry.bottom_row; ++y) {
     const int block = static_cast<int>(
         static_cast<long long>(y - geometry.top_row) * options.num_blocks / rows);
     const double axis = geometry.AxisColumn(y);
-    // Background samples: beyond 1.15 radii, every 4th pixel of every 4th row.
-    if ((y - geometry.top_row) % 4 == 0) {
+    // Background samples: beyond 1.15 radii, every 4th pixel of every
+    // background_row_step-th row (about 256 rows in all).
+    if ((y - geometry.top_row) % background_row_step == 0) {
       const double beyond = 1.15 * geometry.radius_px / cos_tilt;  // px from the axis
-      for (int x = 0; x < luminance.width; x += 4) {
-        if (std::fabs(x - axis) > beyond && !luminance.IsSaturated(x, y)) {
-          outside.push_back(luminance.At(x, y));
-        }
-      }
+      const int left_end = static_cast<int>(std::ceil(axis - beyond)) - 1;
+      const int right_start = static_cast<int>(std::floor(axis + beyond)) + 1;
+      auto sample = [&](int x) {
+        if (!luminance.IsSaturated(x, y)) outside.push_back(luminance.At(x, y));
+      };
+      for (int x = 0; x <= std::min(left_end, luminance.width - 1); x += 4) sample(x);
+      for (int x = std::max(right_start, 0); x < luminance.width; x += 4) sample(x);
     }
     // The row's pixel footprints as (bin, weight) pairs, relative to the
     // axis column quantised to 1/kSubpixel px (a 1/64 px shift moves φ by
@@ -150,6 +160,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
       cs.sum.assign(static_cast<std::size_t>(options.num_blocks) * width, 0.0);
       cs.count.assign(cs.sum.size(), 0.0);
       cs.saturated.assign(cs.sum.size(), 0.0);
+      cs.span_diff.assign(static_cast<std::size_t>(options.num_blocks) * (width + 1), 0.0);
     }
     const std::size_t at0 = static_cast<std::size_t>(block) * width + half_span;
     const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
@@ -162,10 +173,21 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     double* sum = cs.sum.data() + at0;
     double* count = cs.count.data() + at0;
     double* saturated = cs.saturated.data() + at0;
+    // A row with no masked pixel in its span takes the plain sum (memchr is
+    // vectorised in libc).
+    if (mask != nullptr && dx_hi >= dx_lo &&
+        std::memchr(mask + b0 + dx_lo, 1, static_cast<std::size_t>(dx_hi - dx_lo + 1)) == nullptr) {
+      mask = nullptr;
+    }
     if (mask == nullptr) {
-      for (int dx = dx_lo; dx <= dx_hi; ++dx) {
-        sum[dx] += row[b0 + dx];
-        count[dx] += 1.0;
+      if (dx_hi >= dx_lo) {
+        // OpenCV's vectorised float-into-double accumulation.
+        const int n = dx_hi - dx_lo + 1;
+        cv::accumulate(cv::Mat(1, n, CV_32F, const_cast<float*>(row + b0 + dx_lo)),
+                       cv::Mat(1, n, CV_64F, sum + dx_lo));
+        double* diff = cs.span_diff.data() + static_cast<std::size_t>(block) * (width + 1) + half_span;
+        diff[dx_lo] += 1.0;
+        diff[dx_hi + 1] -= 1.0;
       }
     } else {
       for (int dx = dx_lo; dx <= dx_hi; ++dx) {
@@ -179,10 +201,18 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     }
   }
   for (int key = 0; key < kSubpixel; ++key) {
-    const ColumnSums& cs = column_sums[key];
+    ColumnSums& cs = column_sums[key];
     if (cs.sum.empty()) continue;
     const Footprints& fp = footprints[key];
     for (int block = 0; block < options.num_blocks; ++block) {
+      // The spans of the unmasked rows into the counts.
+      double running = 0.0;
+      const double* diff = cs.span_diff.data() + static_cast<std::size_t>(block) * (width + 1);
+      double* column_count = cs.count.data() + static_cast<std::size_t>(block) * width;
+      for (int i = 0; i < width; ++i) {
+        running += diff[i];
+        column_count[i] += running;
+      }
       double* sums = &profile.block_sum[static_cast<std::size_t>(block) * num_bins];
       double* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
       for (int dx = -half_span; dx <= half_span; ++dx) {
