@@ -166,9 +166,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   ArcSignalOptions arc;
   arc.from_rad = std::max(peaks.mirror_rad - 0.9 * half, -limit);
   arc.to_rad = std::min(peaks.mirror_rad + 0.9 * half, limit);
-  // The period search uses at most 96 rows with glints; four times as many
+  // The period search uses at most 96 rows with glints; twice as many
   // candidates is plenty and keeps large images cheap.
-  arc.max_rows = 384;
+  arc.max_rows = 192;
   absl::StatusOr<ArcSignals> signals = ExtractArcSignals(luminance, cylinder, projection, arc);
   GlintModel model;
   model.max_slope = peaks.max_slope;
