@@ -36,7 +36,9 @@ namespace {
 // Flags shared by estimate and submit.
 struct EstimateFlags {
   std::vector<std::string> images;
-  std::optional<double> phase_angle_deg;
+  // One for all images, or one per image (--phase-angle 10,60,110).
+  std::vector<double> phase_angles_deg;
+  bool joint = false;  // estimate only: also the joint estimate over the images
   double diameter_mm = 46.0;
   double distance_mm = 0.0;
   bool linear = false;
@@ -117,15 +119,16 @@ std::optional<double> StructNumber(const google::protobuf::Struct& s,
 // The request header for one image: flags, or the sidecar's "acquisition"
 // object when the phase angle is not given on the command line.
 absl::StatusOr<v1::RequestHeader> HeaderFor(const EstimateFlags& flags,
-                                            const std::string& image) {
+                                            const std::string& image, std::size_t index) {
   v1::RequestHeader header;
   v1::Acquisition* acq = header.mutable_acquisition();
   acq->set_cylinder_diameter_mm(flags.diameter_mm);
   acq->set_camera_distance_mm(flags.distance_mm);
   acq->set_pixels_linear(flags.linear);
   acq->set_saturation_level(flags.saturation_level);
-  if (flags.phase_angle_deg) {
-    acq->set_phase_angle_deg(*flags.phase_angle_deg);
+  if (!flags.phase_angles_deg.empty()) {
+    acq->set_phase_angle_deg(flags.phase_angles_deg.size() == 1 ? flags.phase_angles_deg[0]
+                                                                : flags.phase_angles_deg[index]);
   } else {
     const auto sidecar = ReadSidecar(image);
     const auto phase = sidecar ? StructNumber(*sidecar, "acquisition", "phaseAngleDeg")
@@ -174,15 +177,26 @@ absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& hea
 
 // estimate and submit differ only in where the work is done.
 int RunEstimates(const EstimateFlags& flags, bool remote) {
+  if (flags.phase_angles_deg.size() > 1 && flags.phase_angles_deg.size() != flags.images.size()) {
+    const absl::Status s = absl::InvalidArgumentError(absl::StrCat(
+        "--phase-angle gives ", flags.phase_angles_deg.size(), " angles for ",
+        flags.images.size(), " images: give one for all or one per image"));
+    std::cerr << "weavefit: " << s.message() << "\n";
+    if (flags.json) std::cout << ErrorToJson(s) << "\n";
+    return static_cast<int>(s.code());
+  }
   std::vector<ReportRow> rows;
+  std::vector<PhotographEstimate> photographs;
+  std::vector<std::string> names;
   absl::Status first_error;
-  for (const std::string& image : flags.images) {
+  for (std::size_t index = 0; index < flags.images.size(); ++index) {
+    const std::string& image = flags.images[index];
     ReportRow row;
     row.image = image;
     absl::StatusOr<v1::EstimateReply> reply = [&]() -> absl::StatusOr<v1::EstimateReply> {
       absl::StatusOr<std::string> bytes = ReadFile(image);
       if (!bytes.ok()) return bytes.status();
-      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags, image);
+      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags, image, index);
       if (!header.ok()) return header.status();
       if (remote) return SubmitEstimate(flags.server, *header, *bytes, flags.timeout_s);
       return EstimateInProcess(*header, *bytes, flags.profile_csv);
@@ -196,6 +210,8 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
         std::cout << json << "\n";
       }
       row.reply = *reply;
+      photographs.push_back(PhotographFromReply(*reply));
+      names.push_back(reply->sample_name());
     } else {
       if (first_error.ok()) first_error = reply.status();
       std::cerr << "weavefit: " << image << ": "
@@ -211,15 +227,40 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
     rows.push_back(std::move(row));
   }
   if (!flags.json) std::cout << FormatTable(rows);
+  if (flags.joint) {
+    absl::StatusOr<JointEstimate> joint = CombineEstimates(photographs);
+    if (!joint.ok()) {
+      if (first_error.ok()) first_error = joint.status();
+      std::cerr << "weavefit: joint estimate: " << joint.status().message() << "\n";
+      if (flags.json) std::cout << ErrorToJson(joint.status()) << "\n";
+    } else {
+      const v1::JointEstimate proto = JointToProto(*joint, names);
+      if (flags.json) {
+        google::protobuf::util::JsonPrintOptions options;
+        options.always_print_primitive_fields = true;
+        std::string json;
+        (void)google::protobuf::util::MessageToJsonString(proto, &json, options);
+        std::cout << "{\"joint\":" << json << "}\n";
+      } else {
+        std::cout << FormatJoint(proto);
+      }
+    }
+  }
   return first_error.ok() ? 0 : static_cast<int>(first_error.code());
 }
 
 void AddEstimateFlags(CLI::App* app, EstimateFlags* flags, bool remote) {
   app->add_option("images", flags->images, "photographs (PNG, TIFF, JPEG, EXR)")
       ->required();
-  app->add_option("--phase-angle", flags->phase_angle_deg,
+  app->add_option("--phase-angle", flags->phase_angles_deg,
                   "signed phase angle, deg, in (-180, 180); positive = light on "
-                  "the image's right (default: the sidecar's acquisition.phaseAngleDeg)");
+                  "the image's right; one for all images or one per image, comma-separated "
+                  "(default: each sidecar's acquisition.phaseAngleDeg)")
+      ->delimiter(',')
+      ->allow_extra_args(false);
+  app->add_flag("--joint", flags->joint,
+                "also combine the images, photographs of one sample, into a joint estimate "
+                "of the thread parameters");
   app->add_option("--diameter-mm", flags->diameter_mm, "cylinder diameter, mm")
       ->capture_default_str();
   app->add_option("--distance-mm", flags->distance_mm,

@@ -67,4 +67,19 @@ std::string FormatTable(const std::vector<ReportRow>& rows) {
   return out;
 }
 
+std::string FormatJoint(const v1::JointEstimate& j) {
+  std::string out = absl::StrCat("\njoint estimate over ", j.photographs_size(),
+                                 " photographs (", absl::StrJoin(j.photographs(), ", "), "):\n");
+  absl::StrAppend(&out, "  model          ", v1::ProfileModel_Name(j.model()), "\n");
+  absl::StrAppend(&out, "  spacing (deg)  ", Cell(j.peak_spacing_deg(), "%.2f ± %.2f"), "\n");
+  absl::StrAppendFormat(&out, "  max slope      %s  (%d photographs, reduced chi-square %.2f)\n",
+                        Cell(j.max_slope(), "%.4f ± %.4f"), j.slope_photographs(), j.slope_chi2());
+  absl::StrAppendFormat(&out, "  wavelength     %s  (%d photographs, reduced chi-square %.2f)\n",
+                        Cell(j.wavelength_mm(), "%.3f ± %.3f mm"), j.wavelength_photographs(),
+                        j.wavelength_chi2());
+  absl::StrAppend(&out, "  amplitude      ", Cell(j.amplitude_mm(), "%.4f ± %.4f mm"), "\n");
+  for (const std::string& w : j.warnings()) absl::StrAppend(&out, "  - ", w, "\n");
+  return out;
+}
+
 }  // namespace weavefit

@@ -22,6 +22,9 @@ struct ReportRow {
 // A fixed-width table, one line per image, then the warnings per image.
 std::string FormatTable(const std::vector<ReportRow>& rows);
 
+// The joint estimate over several photographs of one sample, a few lines.
+std::string FormatJoint(const v1::JointEstimate& joint);
+
 }  // namespace weavefit
 
 #endif  // WEAVEFIT_CLIENT_REPORT_H_

@@ -1,5 +1,6 @@
 // End to end through the real weavefitd and weavefit binaries on an
 // ephemeral loopback port (STYLE.md "Tests").
+#include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
@@ -10,6 +11,7 @@
 #include <thread>
 #include <algorithm>
 
+#include "absl/strings/str_split.h"
 #include "estimator/io/encode.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "proto/weavefit/v1/convert.h"
@@ -134,6 +136,50 @@ TEST_F(EndToEnd, TableOutputNamesEveryImage) {
   const CommandResult run = Submit(images);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   for (const std::string& image : images) EXPECT_NE(run.out.find(image), std::string::npos);
+}
+
+// The coarse copper gauze photographed at four phase angles (the fixtures
+// gauze_sinusoid_*: one sample, λ 2.88 mm, m 0.2356), each angle from its
+// sidecar: the daemon estimates each, the client combines them.
+TEST_F(EndToEnd, JointEstimateOverFourPhaseAngles) {
+  std::vector<std::string> images;
+  for (const char* name : {"gauze_sinusoid_p10.png", "gauze_sinusoid_p30.exr",
+                           "gauze_sinusoid_p60.png", "gauze_sinusoid_m110.png"}) {
+    images.push_back(kFixtures + "/" + name);
+  }
+  std::vector<std::string> args = images;
+  args.push_back("--joint");
+  args.push_back("--json");
+  const CommandResult remote = Submit(args);
+  const CommandResult local = Estimate(args);
+  ASSERT_EQ(remote.exit_code, 0) << remote.err;
+  ASSERT_EQ(local.exit_code, 0) << local.err;
+  const std::vector<std::string> lines = absl::StrSplit(remote.out, '\n', absl::SkipEmpty());
+  ASSERT_EQ(lines.size(), images.size() + 1) << remote.out;
+  double smallest = 1e9;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    smallest = std::min(smallest, ParseReply(lines[i]).max_slope().stderr());
+  }
+  google::protobuf::Struct joint;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(lines.back(), &joint).ok()) << lines.back();
+  const google::protobuf::Struct& j = joint.fields().at("joint").struct_value();
+  EXPECT_EQ(j.fields().at("model").string_value(), "SINUSOID");
+  EXPECT_EQ(j.fields().at("slopePhotographs").number_value(), 4);
+  const auto& m = j.fields().at("maxSlope").struct_value().fields();
+  EXPECT_TRUE(m.at("resolved").bool_value());
+  EXPECT_LT(m.at("stderr").number_value(), smallest);
+  EXPECT_NEAR(m.at("value").number_value(), 0.2356, 3.0 * m.at("stderr").number_value());
+  // In-process and through the daemon: the same joint line.
+  const std::vector<std::string> local_lines = absl::StrSplit(local.out, '\n', absl::SkipEmpty());
+  ASSERT_FALSE(local_lines.empty());
+  EXPECT_EQ(local_lines.back(), lines.back());
+}
+
+TEST_F(EndToEnd, PhaseAnglesMustMatchTheImages) {
+  const std::vector<std::string> images = FixtureImages(kFixtures);
+  const CommandResult run = Estimate({images[0], images[1], images[2], "--phase-angle", "10,60"});
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_NE(run.err.find("2 angles for 3 images"), std::string::npos) << run.err;
 }
 
 struct BadInput {

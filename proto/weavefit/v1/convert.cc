@@ -28,6 +28,21 @@ v1::ProfileModel ModelToProto(ProfileModel model) {
   return v1::PROFILE_MODEL_UNSPECIFIED;
 }
 
+ProfileModel ModelFromProto(v1::ProfileModel model) {
+  switch (model) {
+    case v1::SINUSOID:
+      return ProfileModel::kSinusoid;
+    case v1::SAWTOOTH:
+      return ProfileModel::kSawtooth;
+    default:
+      return ProfileModel::kSmooth;
+  }
+}
+
+Quantity QuantityFromProto(const v1::Measurement& m) {
+  return m.resolved() ? Quantity{m.value(), m.stderr(), true} : Quantity{};
+}
+
 void SetMeasurement(const Quantity& q, double scale, v1::Measurement* out) {
   if (!q.resolved) {
     out->Clear();
@@ -158,6 +173,28 @@ std::string ErrorToJson(const absl::Status& status) {
   std::string json;
   (void)google::protobuf::util::MessageToJsonString(root, &json);
   return json;
+}
+
+PhotographEstimate PhotographFromReply(const v1::EstimateReply& reply) {
+  return {reply.sample_name(), ModelFromProto(reply.model()), QuantityFromProto(reply.max_slope()),
+          QuantityFromProto(reply.wavelength_mm())};
+}
+
+v1::JointEstimate JointToProto(const JointEstimate& joint,
+                               const std::vector<std::string>& photographs) {
+  v1::JointEstimate out;
+  out.set_model(ModelToProto(joint.model));
+  SetMeasurement(joint.peak_spacing_rad, 1.0 / kDeg, out.mutable_peak_spacing_deg());
+  SetMeasurement(joint.max_slope, 1.0, out.mutable_max_slope());
+  SetMeasurement(joint.wavelength_mm, 1.0, out.mutable_wavelength_mm());
+  SetMeasurement(joint.amplitude_mm, 1.0, out.mutable_amplitude_mm());
+  for (const std::string& p : photographs) out.add_photographs(p);
+  out.set_slope_photographs(joint.slope_photographs);
+  out.set_wavelength_photographs(joint.wavelength_photographs);
+  out.set_slope_chi2(joint.slope_chi2);
+  out.set_wavelength_chi2(joint.wavelength_chi2);
+  for (const std::string& w : joint.warnings) out.add_warnings(w);
+  return out;
 }
 
 }  // namespace weavefit

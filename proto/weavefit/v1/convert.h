@@ -9,6 +9,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "estimator/pipeline/estimate.h"
+#include "estimator/pipeline/joint.h"
 #include "weavefit/v1/weavefit.pb.h"
 
 namespace weavefit {
@@ -30,6 +31,12 @@ absl::StatusOr<v1::EstimateReply> ReplyFromJson(const std::string& json);
 
 // {"error": {"code": "INVALID_ARGUMENT", "message": "..."}} for a status.
 std::string ErrorToJson(const absl::Status& status);
+
+// A reply's thread quantities for the joint estimate, and the joint estimate
+// on the wire.
+PhotographEstimate PhotographFromReply(const v1::EstimateReply& reply);
+v1::JointEstimate JointToProto(const JointEstimate& joint,
+                               const std::vector<std::string>& photographs);
 
 }  // namespace weavefit
 

@@ -1,0 +1,125 @@
+// The joint estimate over several photographs of one sample.
+#include "estimator/pipeline/joint.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "estimator/render/render.h"
+
+namespace weavefit {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+PhotographEstimate Photo(const std::string& name, ProfileModel model, double m, double m_se,
+                         double lambda = 0.0, double lambda_se = 0.0) {
+  PhotographEstimate p;
+  p.name = name;
+  p.model = model;
+  p.max_slope = {m, m_se, m_se > 0.0};
+  p.wavelength_mm = {lambda, lambda_se, lambda_se > 0.0};
+  return p;
+}
+
+TEST(JointTest, InverseVarianceMeanWhenThePhotographsAgree) {
+  absl::StatusOr<JointEstimate> j = CombineEstimates(
+      {Photo("a", ProfileModel::kSinusoid, 0.24, 0.01, 2.0, 0.04),
+       Photo("b", ProfileModel::kSinusoid, 0.25, 0.02, 2.02, 0.02),
+       Photo("c", ProfileModel::kSinusoid, 0.23, 0.02)});
+  ASSERT_TRUE(j.ok()) << j.status();
+  EXPECT_EQ(j->model, ProfileModel::kSinusoid);
+  // Weights 1/σ²: 10000, 2500, 2500.
+  EXPECT_NEAR(j->max_slope.value, (0.24 * 4 + 0.25 + 0.23) / 6.0, 1e-12);
+  EXPECT_NEAR(j->max_slope.stderr_value, std::sqrt(1.0 / 15000.0), 1e-12);  // chi2 < 1
+  EXPECT_EQ(j->slope_photographs, 3);
+  EXPECT_NEAR(j->peak_spacing_rad.value, 2.0 * std::atan(j->max_slope.value), 1e-12);
+  EXPECT_EQ(j->wavelength_photographs, 2);
+  EXPECT_NEAR(j->wavelength_mm.value, (2.0 * 625 + 2.02 * 2500) / 3125.0, 1e-12);
+  ASSERT_TRUE(j->amplitude_mm.resolved);
+  EXPECT_NEAR(j->amplitude_mm.value, j->max_slope.value * j->wavelength_mm.value / (2 * M_PI),
+              1e-12);
+  EXPECT_TRUE(j->warnings.empty());
+}
+
+TEST(JointTest, DisagreementScalesTheErrorAndSaysSo) {
+  absl::StatusOr<JointEstimate> j = CombineEstimates(
+      {Photo("a", ProfileModel::kSawtooth, 0.15, 0.002), Photo("b", ProfileModel::kSawtooth, 0.20, 0.002)});
+  ASSERT_TRUE(j.ok());
+  // chi2 = (0.025/0.002)² · 2 = 312.5 with one degree of freedom.
+  EXPECT_NEAR(j->slope_chi2, 312.5, 1e-9);
+  EXPECT_NEAR(j->max_slope.stderr_value, std::sqrt(0.5) * 0.002 * std::sqrt(312.5), 1e-12);
+  ASSERT_EQ(j->warnings.size(), 1u);
+  EXPECT_NE(j->warnings[0].find("scatter"), std::string::npos);
+  EXPECT_FALSE(j->wavelength_mm.resolved);
+  EXPECT_FALSE(j->amplitude_mm.resolved);
+}
+
+TEST(JointTest, TheMajorityModelWinsAndTheOthersAreLeftOut) {
+  absl::StatusOr<JointEstimate> j = CombineEstimates(
+      {Photo("a", ProfileModel::kSinusoid, 0.24, 0.01), Photo("b", ProfileModel::kSinusoid, 0.24, 0.01),
+       Photo("c", ProfileModel::kSawtooth, 0.15, 0.001)});
+  ASSERT_TRUE(j.ok());
+  EXPECT_EQ(j->model, ProfileModel::kSinusoid);
+  EXPECT_EQ(j->slope_photographs, 2);
+  EXPECT_NEAR(j->max_slope.value, 0.24, 1e-12);
+  ASSERT_FALSE(j->warnings.empty());
+  EXPECT_NE(j->warnings[0].find("disagree on the thread profile"), std::string::npos);
+}
+
+TEST(JointTest, SmoothSamplesHaveNoSlope) {
+  absl::StatusOr<JointEstimate> j =
+      CombineEstimates({Photo("a", ProfileModel::kSmooth, 0, 0), Photo("b", ProfileModel::kSmooth, 0, 0)});
+  ASSERT_TRUE(j.ok());
+  EXPECT_EQ(j->model, ProfileModel::kSmooth);
+  EXPECT_FALSE(j->max_slope.resolved);
+  EXPECT_FALSE(j->peak_spacing_rad.resolved);
+}
+
+TEST(JointTest, OnePhotographIsNotAJointEstimate) {
+  absl::StatusOr<JointEstimate> j = CombineEstimates({Photo("a", ProfileModel::kSinusoid, 0.24, 0.01)});
+  ASSERT_FALSE(j.ok());
+  EXPECT_EQ(j.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// One sawtooth sample (m = 0.2) photographed at the paper's three phase
+// angles: the joint error bar is smaller than every photograph's, and the
+// joint value lies within 3 of its standard errors of the truth.
+TEST(JointTest, ThreePhaseAnglesOfOneRenderedSample) {
+  std::vector<PhotographEstimate> photos;
+  double truth = 0.0;
+  double smallest_se = 1e9;
+  for (double alpha : {10.0, 60.0, 110.0}) {
+    RenderScene scene;
+    scene.width_px = 320;
+    scene.height_px = 240;
+    scene.radius_px = 128.0;
+    scene.model = ProfileModel::kSawtooth;
+    scene.wavelength_mm = 2.0;
+    scene.amplitude_mm = 0.1;  // m = 4·h0/λ = 0.2
+    scene.phase_angle_deg = alpha;
+    scene.seed = 7 + static_cast<int>(alpha);
+    absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+    ASSERT_TRUE(r.ok()) << r.status();
+    truth = r->truth.max_slope;
+    Acquisition acquisition;
+    acquisition.phase_angle_rad = alpha * kDeg;
+    acquisition.pixels_linear = true;
+    absl::StatusOr<Estimate> e = EstimateFromImage(r->image, acquisition, EstimateOptions());
+    ASSERT_TRUE(e.ok()) << e.status();
+    ASSERT_TRUE(e->max_slope.resolved) << alpha;
+    smallest_se = std::min(smallest_se, e->max_slope.stderr_value);
+    photos.push_back(PhotographFrom(*e, "alpha " + std::to_string(alpha)));
+  }
+  absl::StatusOr<JointEstimate> j = CombineEstimates(photos);
+  ASSERT_TRUE(j.ok()) << j.status();
+  EXPECT_EQ(j->model, ProfileModel::kSawtooth);
+  EXPECT_EQ(j->slope_photographs, 3);
+  EXPECT_LT(j->max_slope.stderr_value, smallest_se);
+  EXPECT_NEAR(j->max_slope.value, truth, 3.0 * j->max_slope.stderr_value);
+}
+
+}  // namespace
+}  // namespace weavefit
