@@ -106,6 +106,68 @@ double Crossing(const std::vector<double>& profile, int a, int b,
   return a;
 }
 
+// The limb to a fraction of a pixel: the band's pixels from two outside the
+// first estimate e0 to five inside are fitted, for edges e within a pixel of
+// it, as background outside and, over the covered part of each pixel, a
+// body level B plus a term S/cos φ (the grazing scatter, DESIGN.md §3, whose
+// integrable 1/cos φ rise brightens the limb pixel itself and pushes a
+// half-level crossing outward). cos φ is taken from the distance d inside
+// the limb: sin φ = 1 − d/r. `inward` is +1 when the surface lies at larger
+// columns (a left limb), −1 otherwise. B and S enter linearly.
+double RefineEdge(const std::vector<double>& v, double background, double e0, int inward,
+                  double radius_px) {
+  const int n = static_cast<int>(v.size());
+  const int x_first = static_cast<int>(std::floor(e0 - inward * 2.0 + 0.5));
+  std::vector<int> xs;
+  for (int k = 0; k <= 8; ++k) {
+    const int x = x_first + inward * k;
+    if (x >= 0 && x < n) xs.push_back(x);
+  }
+  if (xs.size() < 6 || !(radius_px > 4.0)) return e0;
+  const double r = radius_px;
+  auto arc = [r](double d) { return std::asin(std::clamp(1.0 - d / r, -1.0, 1.0)); };
+  double best_e = e0;
+  double best_sse = std::numeric_limits<double>::infinity();
+  for (int step = -100; step <= 100; ++step) {
+    const double e = e0 + 0.01 * step;
+    // Normal equations for (B, S) on y = v − bg·(1 − cov) = B·cov + S·I.
+    double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
+    std::vector<double> cov(xs.size()), integral(xs.size()), y(xs.size());
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const int x = xs[i];
+      const double d_lo = inward > 0 ? x - 0.5 - e : e - x - 0.5;
+      const double lo = std::max(0.0, d_lo);
+      const double hi = std::max(lo, d_lo + 1.0);
+      cov[i] = hi - lo;
+      integral[i] = r * (arc(lo) - arc(hi));
+      y[i] = v[x] - background * (1.0 - cov[i]);
+      a11 += cov[i] * cov[i];
+      a12 += cov[i] * integral[i];
+      a22 += integral[i] * integral[i];
+      b1 += cov[i] * y[i];
+      b2 += integral[i] * y[i];
+    }
+    const double det = a11 * a22 - a12 * a12;
+    if (!(std::fabs(det) > 1e-12 * std::max(1.0, a11 * a22))) continue;
+    double body = (b1 * a22 - b2 * a12) / det;
+    double scatter = (a11 * b2 - a12 * b1) / det;
+    if (scatter < 0.0) {  // scatter only brightens: a plain step then
+      scatter = 0.0;
+      body = b1 / a11;
+    }
+    double sse = 0.0;
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const double res = y[i] - body * cov[i] - scatter * integral[i];
+      sse += res * res;
+    }
+    if (sse < best_sse) {
+      best_sse = sse;
+      best_e = e;
+    }
+  }
+  return best_e;
+}
+
 // Column of the brightest part of the surface: the centroid of the columns
 // more than half-way from the median of [from, to] to its maximum.
 double BrightestCentroid(const std::vector<double>& mean_profile, int x0, double from, double to) {
@@ -264,12 +326,15 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     const double left_half = 0.5 * (background + inside_level(left, +1));
     const double right_half = 0.5 * (background + inside_level(right, -1));
     const double row = 0.5 * (y0 + y1 - 1);
+    const double left_cross = Crossing(smoothed, std::max(left - 3, 0),
+                                       std::min(left + 4, region.width - 1), left_half);
+    const double right_cross = Crossing(smoothed, std::min(right + 3, region.width - 1),
+                                        std::max(right - 4, 0), right_half);
+    const double band_radius = 0.5 * (right_cross - left_cross);
     left_points.push_back(
-        {row, region.x + Crossing(smoothed, std::max(left - 3, 0),
-                                  std::min(left + 4, region.width - 1), left_half)});
+        {row, region.x + RefineEdge(profile, background, left_cross, +1, band_radius)});
     right_points.push_back(
-        {row, region.x + Crossing(smoothed, std::min(right + 3, region.width - 1),
-                                  std::max(right - 4, 0), right_half)});
+        {row, region.x + RefineEdge(profile, background, right_cross, -1, band_radius)});
   }
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
