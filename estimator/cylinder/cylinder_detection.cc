@@ -128,8 +128,9 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   auto arc = [r](double d) { return std::asin(std::clamp(1.0 - d / r, -1.0, 1.0)); };
   double best_e = e0;
   double best_sse = std::numeric_limits<double>::infinity();
-  for (int step = -100; step <= 100; ++step) {
-    const double e = e0 + 0.01 * step;
+  // Edges within a pixel of e0: every 0.05 px, then every 0.005 px around
+  // the best.
+  auto consider = [&](double e) {
     // Normal equations for (B, S) on y = v − bg·(1 − cov) = B·cov + S·I.
     double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
     std::vector<double> cov(xs.size()), integral(xs.size()), y(xs.size());
@@ -148,7 +149,7 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
       b2 += integral[i] * y[i];
     }
     const double det = a11 * a22 - a12 * a12;
-    if (!(std::fabs(det) > 1e-12 * std::max(1.0, a11 * a22))) continue;
+    if (!(std::fabs(det) > 1e-12 * std::max(1.0, a11 * a22))) return;
     double body = (b1 * a22 - b2 * a12) / det;
     double scatter = (a11 * b2 - a12 * b1) / det;
     if (scatter < 0.0) {  // scatter only brightens: a plain step then
@@ -164,7 +165,10 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
       best_sse = sse;
       best_e = e;
     }
-  }
+  };
+  for (int step = -20; step <= 20; ++step) consider(e0 + 0.05 * step);
+  const double coarse = best_e;
+  for (int step = -10; step <= 10; ++step) consider(coarse + 0.005 * step);
   return best_e;
 }
 
