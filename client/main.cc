@@ -11,6 +11,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <CLI/CLI.hpp>
+#include <glog/logging.h>
 #include <cmath>
 #include <fstream>
 #include <iostream>
@@ -462,6 +463,12 @@ void AddRenderFlags(CLI::App* app, RenderFlags* f) {
 }  // namespace weavefit
 
 int main(int argc, char** argv) {
+  // Ceres logs through glog; the client's output is its table or JSON, so
+  // only errors reach stderr (a rank-deficient nuisance covariance in
+  // accurate mode is expected, not news).
+  FLAGS_logtostderr = true;
+  FLAGS_minloglevel = google::GLOG_ERROR;
+  google::InitGoogleLogging(argv[0]);
   CLI::App app{"weavefit: thread geometry of glossy woven materials from one photograph"};
   app.require_subcommand(1);
   weavefit::EstimateFlags estimate_flags;

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "estimator/fit/profile_fit.h"
+#include "estimator/init/profile_bank.h"
 #include "estimator/glints/glint_period.h"
 #include "estimator/profile/arc_signals.h"
 
@@ -204,9 +205,53 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
   ProfileFitOptions fit_options;
   fit_options.smoothing_rad = peaks.smoothing_rad;
   fit_options.max_iterations = options.fit_max_iterations;
-  absl::StatusOr<ProfileFitResult> fits = FitProfileModels(
-      estimate->profile, acquisition.phase_angle_rad, acquisition.GetProjection(),
-      peaks.split_resolved ? peaks.max_slope : 0.2, fit_options);
+  // Starting slopes: peak picking's, and those of the nearest model shapes
+  // in the FLANN bank (estimator/init), which are also reported as
+  // candidates. Per model the fit with the lowest BIC over the starts is kept.
+  std::vector<double> starts = {peaks.split_resolved ? peaks.max_slope : 0.2};
+  absl::StatusOr<std::vector<BankMatch>> near = ProfileBank::Default().NearestPerModel(
+      estimate->profile, peaks.mirror_rad, acquisition.phase_angle_rad);
+  if (near.ok() && !near->empty()) {
+    const BankMatch* nearest = &near->front();
+    for (const BankMatch& m : *near) {
+      estimate->candidates.push_back({m.entry.model, "flann (nearest model shape)", m.distance, false});
+      if (m.distance < nearest->distance) nearest = &m;
+    }
+    // The nearest shape's slope, when it has a split, starts the fits too.
+    if (nearest->entry.model != ProfileModel::kSmooth &&
+        std::fabs(nearest->entry.max_slope / starts.front() - 1.0) > 0.05) {
+      starts.push_back(nearest->entry.max_slope);
+    }
+  } else if (!near.ok()) {
+    estimate->warnings.push_back(absl::StrCat("model-shape bank not searched: ",
+                                              near.status().message()));
+  }
+  absl::StatusOr<ProfileFitResult> fits;
+  for (double start : starts) {
+    absl::StatusOr<ProfileFitResult> f = FitProfileModels(
+        estimate->profile, acquisition.phase_angle_rad, acquisition.GetProjection(), start,
+        fit_options);
+    if (!f.ok()) {
+      if (!fits.ok() || fits->fits.empty()) fits = f;
+      continue;
+    }
+    if (!fits.ok() || fits->fits.empty()) {
+      fits = f;
+      continue;
+    }
+    for (std::size_t i = 0; i < f->fits.size() && i < fits->fits.size(); ++i) {
+      const ModelFit& candidate = f->fits[i];
+      ModelFit& kept = fits->fits[i];
+      if (candidate.converged && (!kept.converged || candidate.bic < kept.bic)) kept = candidate;
+    }
+  }
+  if (fits.ok()) {
+    fits->best = -1;
+    for (std::size_t i = 0; i < fits->fits.size(); ++i) {
+      if (!fits->fits[i].converged) continue;
+      if (fits->best < 0 || fits->fits[i].bic < fits->fits[fits->best].bic) fits->best = static_cast<int>(i);
+    }
+  }
   if (!fits.ok() || fits->best < 0) {
     estimate->warnings.push_back(absl::StrCat(
         "model fit failed, peak picking kept: ",
