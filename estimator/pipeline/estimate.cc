@@ -143,6 +143,57 @@ std::vector<ChannelSummary> SummariseChannels(const Image& image,
   return out;
 }
 
+// An upper bound on the max slope of a lobe whose split is not resolved:
+// the lobe's variance in facet tilt is the blur's plus the facets' own, and
+// the facets' is m²/2 for a sinusoid (tan β = m·sin θ) and arctan²(m) for a
+// sawtooth, so arctan(m) ≤ √2·σ_lobe for either. σ_lobe is the second moment
+// about the mirror azimuth of the lobe within ±20° in tilt, a straight
+// baseline through the window's ends taken off and the geometric factor
+// cos(α/2)/(cos φ·cos β) divided out (DESIGN.md §3); noise in the tails only
+// widens it, loosening the bound. 0 when there is no lobe to measure.
+double MaxSlopeUpperBound(const Profile& profile, double mirror_rad, double phase_angle_rad) {
+  constexpr double kWindow = 20.0 * kDeg;
+  constexpr double kEnds = 2.0 * kDeg;
+  std::vector<double> beta;
+  std::vector<double> value;
+  for (int i = 0; i < profile.NumBins(); ++i) {
+    const double b = mirror_rad - profile.azimuth_rad[i];
+    if (std::fabs(b) > kWindow || profile.count[i] <= 0.0) continue;
+    beta.push_back(b);
+    value.push_back(profile.mean[i]);
+  }
+  if (beta.size() < 10) return 0.0;
+  double lo_sum = 0.0, lo_beta = 0.0, hi_sum = 0.0, hi_beta = 0.0;
+  int lo_n = 0, hi_n = 0;
+  const double b_min = *std::min_element(beta.begin(), beta.end());
+  const double b_max = *std::max_element(beta.begin(), beta.end());
+  for (std::size_t i = 0; i < beta.size(); ++i) {
+    if (beta[i] < b_min + kEnds) {
+      lo_sum += value[i];
+      lo_beta += beta[i];
+      ++lo_n;
+    } else if (beta[i] > b_max - kEnds) {
+      hi_sum += value[i];
+      hi_beta += beta[i];
+      ++hi_n;
+    }
+  }
+  if (lo_n == 0 || hi_n == 0) return 0.0;
+  const double b0 = lo_beta / lo_n, v0 = lo_sum / lo_n, b1 = hi_beta / hi_n, v1 = hi_sum / hi_n;
+  double w_sum = 0.0, w_b2 = 0.0;
+  for (std::size_t i = 0; i < beta.size(); ++i) {
+    const double base = v0 + (v1 - v0) * (beta[i] - b0) / (b1 - b0);
+    const double phi = mirror_rad - beta[i];
+    const double w = std::max(0.0, value[i] - base) * std::cos(phi) * std::cos(beta[i]) /
+                     std::max(std::cos(0.5 * phase_angle_rad), 0.05);
+    w_sum += w;
+    w_b2 += w * beta[i] * beta[i];
+  }
+  if (!(w_sum > 0.0)) return 0.0;
+  const double sigma = std::sqrt(w_b2 / w_sum);
+  return std::tan(std::min(std::sqrt(2.0) * sigma, 80.0 * kDeg));
+}
+
 // The wavelength from the glints along the rows inside the lobe, and the
 // amplitude from it and the max slope (DESIGN.md §3).
 void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder,
@@ -352,6 +403,15 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   if (peaks->split_resolved) {
     estimate.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true};
     estimate.max_slope = {peaks->max_slope, peaks->max_slope_stderr, true};
+  } else if (const double bound = MaxSlopeUpperBound(estimate.profile, peaks->mirror_rad,
+                                                      acquisition.phase_angle_rad);
+             bound > 0.0) {
+    estimate.max_slope.upper_bound = bound;
+    estimate.peak_spacing_rad.upper_bound = PeakSpacingRad(bound);
+    estimate.warnings.push_back(absl::StrFormat(
+        "split unresolved: the lobe is one peak, so any split hides in its width; "
+        "that width bounds the max slope to at most %.3f (peak spacing at most %.1f deg)",
+        bound, PeakSpacingRad(bound) / kDeg));
   }
   // Scores: minus the significance of the dip between the peaks for a
   // split, minus the decision threshold for a single peak; lower is better.

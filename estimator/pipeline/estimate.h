@@ -58,6 +58,8 @@ struct Quantity {
   double value = 0.0;
   double stderr_value = 0.0;
   bool resolved = false;
+  // When !resolved: an upper bound the photograph does support (0 = none).
+  double upper_bound = 0.0;
 };
 
 struct CandidateScore {

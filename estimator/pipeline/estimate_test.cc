@@ -318,3 +318,36 @@ TEST(AcquisitionTest, ProjectionFromTheAcquisition) {
 
 }  // namespace
 }  // namespace weavefit
+
+namespace weavefit {
+namespace {
+
+// A split hidden in the blur (sinusoid m = 0.02 under a 2° source) is not
+// reported, but bounded: the bound holds the truth and says so in words.
+TEST(EstimateTest, HiddenSplitIsBoundedFromAbove) {
+  RenderScene scene;
+  scene.width_px = 320;
+  scene.height_px = 240;
+  scene.radius_px = 128.0;
+  scene.model = ProfileModel::kSinusoid;
+  scene.wavelength_mm = 2.0;
+  scene.amplitude_mm = 0.02 * 2.0 / (2.0 * M_PI);
+  scene.source_blur_deg = 2.0;
+  scene.phase_angle_deg = 20.0;
+  scene.seed = 4;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok());
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, Lab(20.0), EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSmooth);
+  EXPECT_FALSE(e->max_slope.resolved);
+  EXPECT_GE(e->max_slope.upper_bound, r->truth.max_slope);
+  EXPECT_LT(e->max_slope.upper_bound, 0.1);  // a bound worth having
+  EXPECT_NEAR(e->peak_spacing_rad.upper_bound, 2.0 * std::atan(e->max_slope.upper_bound), 1e-12);
+  bool said = false;
+  for (const std::string& w : e->warnings) said = said || w.find("bounds the max slope") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
+}  // namespace
+}  // namespace weavefit

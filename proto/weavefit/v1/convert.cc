@@ -46,6 +46,7 @@ Quantity QuantityFromProto(const v1::Measurement& m) {
 void SetMeasurement(const Quantity& q, double scale, v1::Measurement* out) {
   if (!q.resolved) {
     out->Clear();
+    out->set_upper_bound(q.upper_bound * scale);
     return;
   }
   out->set_value(q.value * scale);
