@@ -313,7 +313,11 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
         break;
       }
     }
-    if (left < 0 || right < 0 || right - left < 2 * options.min_radius_px) {
+    // A limb found at the first column searched lies in (or beyond) the side
+    // strip taken as background: its position is not measured, and the
+    // band is left out.
+    if (left < 0 || right < 0 || right - left < 2 * options.min_radius_px || left == side ||
+        right == region.width - 1 - side) {
       continue;
     }
     // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a

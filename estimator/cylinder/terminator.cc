@@ -45,12 +45,12 @@ struct Fit {
 };
 
 // The two lit terms at perpendicular distance t from the lit limb, for a
-// cylinder of radius r: averaged over the pixel's width.
+// cylinder of radius r: averaged over the pixel's width (`sub` samples).
 std::array<double, 2> LitTerms(double t, double r, int side, double alpha,
-                               const Projection& projection) {
+                               const Projection& projection, int sub) {
   std::array<double, 2> terms{0.0, 0.0};
-  for (int k = 0; k < kSubSamples; ++k) {
-    const double tk = t + (k + 0.5) / kSubSamples - 0.5;
+  for (int k = 0; k < sub; ++k) {
+    const double tk = t + (k + 0.5) / sub - 0.5;
     const double u = side * (1.0 + tk / r);
     const double phi = AzimuthFromOffset(u, projection);
     if (!std::isfinite(phi)) continue;  // beyond a limb: background only
@@ -59,16 +59,28 @@ std::array<double, 2> LitTerms(double t, double r, int side, double alpha,
     terms[0] += lit;
     terms[1] += std::cos(alpha / 2.0) / std::max(std::cos(phi), 0.05);
   }
-  terms[0] /= kSubSamples;
-  terms[1] /= kSubSamples;
+  terms[0] /= sub;
+  terms[1] /= sub;
+  return terms;
+}
+
+using Terms = std::vector<std::array<double, 2>>;
+
+// The lit terms of every bin at radius r.
+Terms TermsAt(const std::vector<Bin>& bins, double r, int side, double alpha,
+              const Projection& projection, int sub) {
+  Terms terms(bins.size());
+  for (std::size_t i = 0; i < bins.size(); ++i) {
+    terms[i] = LitTerms(bins[i].t, r, side, alpha, projection, sub);
+  }
   return terms;
 }
 
 // Weighted least squares of bins ≈ b + D·lambert + S·scatter with D, S ≥ 0,
-// the terms in `terms_mask` only (bit 0 Lambertian, bit 1 scatter); an
-// infeasible fit (a negative term) scores infinity.
-Fit FitAtRadius(const std::vector<Bin>& bins, double r, int side, double alpha,
-                const Projection& projection, int terms_mask) {
+// the terms in `terms_mask` only (bit 0 Lambertian, bit 1 scatter), from
+// the bins' lit terms at one radius; an infeasible fit (a negative term)
+// scores infinity.
+Fit FitTerms(const std::vector<Bin>& bins, const Terms& all_terms, int terms_mask) {
   std::vector<int> cols;  // which lit terms, after the constant
   for (int j = 0; j < 2; ++j) {
     if (terms_mask & (1 << j)) cols.push_back(j);
@@ -78,7 +90,7 @@ Fit FitAtRadius(const std::vector<Bin>& bins, double r, int side, double alpha,
   Eigen::MatrixXd design(n, p);
   Eigen::VectorXd values(n);
   for (int i = 0; i < n; ++i) {
-    const std::array<double, 2> terms = LitTerms(bins[i].t, r, side, alpha, projection);
+    const std::array<double, 2>& terms = all_terms[i];
     const double w = std::sqrt(bins[i].weight);
     design(i, 0) = w;
     for (int j = 0; j + 1 < p; ++j) design(i, 1 + j) = w * terms[cols[j]];
@@ -216,21 +228,27 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
   }
   const double bin_noise = Median(dark_noise);
 
-  // Radius: a coarse scan, then a fine one around the best, for each lit
-  // term; the better fit is kept.
-  auto scan = [&](double from, double to, double step, int mask, double* best_r) {
-    Fit best;
-    for (double r = from; r <= to + 1e-9; r += step) {
-      const Fit f = FitAtRadius(bins, r, side, alpha, projection, mask);
-      if (f.chi2 < best.chi2) {
-        best = f;
-        *best_r = r;
-      }
-    }
-    return best;
-  };
+  // Radius: a coarse scan over 0.85–1.2 r0 (steps of 0.4 % of r0, at least
+  // 0.5 px; the lit terms of all bins computed once per radius for the three
+  // choices of terms), then a golden-section search to 0.01 px around each
+  // choice's best. Pixel footprints are sampled 8 times at r0 ≤ 128 px,
+  // fewer on larger cylinders (down to 2), where they matter less.
+  const int sub = std::clamp(static_cast<int>(1024.0 / r0), 2, kSubSamples);
   const double r_min = 0.85 * r0;
   const double r_max = 1.2 * r0;
+  const double step = std::max(0.5, 0.004 * r0);
+  std::array<Fit, 3> coarse;
+  std::array<double, 3> r_coarse = {r0, r0, r0};
+  for (double r = r_min; r <= r_max + 1e-9; r += step) {
+    const Terms terms = TermsAt(bins, r, side, alpha, projection, sub);
+    for (int mask = 1; mask <= 3; ++mask) {
+      const Fit f = FitTerms(bins, terms, mask);
+      if (f.chi2 < coarse[mask - 1].chi2) {
+        coarse[mask - 1] = f;
+        r_coarse[mask - 1] = r;
+      }
+    }
+  }
   Fit fit;
   double r_hat = r0;
   double best_chi2 = std::numeric_limits<double>::infinity();
@@ -240,12 +258,38 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
   // puts the dark limb within 2 px; where both terms are comparable the
   // choice between one and two terms is uncertain and the limb can be 3.5 px
   // off (the closing note of issue 4 has the figures).
-  for (int mask : {1, 2, 3}) {
-    double r_coarse = r0;
-    if (!std::isfinite(scan(r_min, r_max, 0.5, mask, &r_coarse).chi2)) continue;
-    if (r_coarse <= r_min + 0.5 || r_coarse >= r_max - 0.5) continue;
-    double r_fine = r_coarse;
-    const Fit f = scan(r_coarse - 0.5, r_coarse + 0.5, 0.02, mask, &r_fine);
+  for (int mask = 1; mask <= 3; ++mask) {
+    if (!std::isfinite(coarse[mask - 1].chi2)) continue;
+    const double rc = r_coarse[mask - 1];
+    if (rc <= r_min + 0.5 * step || rc >= r_max - 0.5 * step) continue;
+    auto chi2_at = [&](double r) {
+      return FitTerms(bins, TermsAt(bins, r, side, alpha, projection, sub), mask);
+    };
+    double lo = rc - step;
+    double hi = rc + step;
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    double x1 = hi - g * (hi - lo);
+    double x2 = lo + g * (hi - lo);
+    Fit f1 = chi2_at(x1);
+    Fit f2 = chi2_at(x2);
+    while (hi - lo > 0.01) {
+      if (f1.chi2 < f2.chi2) {
+        hi = x2;
+        x2 = x1;
+        f2 = f1;
+        x1 = hi - g * (hi - lo);
+        f1 = chi2_at(x1);
+      } else {
+        lo = x1;
+        x1 = x2;
+        f1 = f2;
+        x2 = lo + g * (hi - lo);
+        f2 = chi2_at(x2);
+      }
+    }
+    const bool first = f1.chi2 < f2.chi2;
+    const Fit f = first ? f1 : f2;
+    const double r_fine = first ? x1 : x2;
     const double penalty = mask == 3 ? std::log(static_cast<double>(bins.size())) : 0.0;
     if (f.chi2 + penalty < best_chi2) {
       best_chi2 = f.chi2 + penalty;

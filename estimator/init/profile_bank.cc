@@ -13,8 +13,11 @@ namespace weavefit {
 struct ProfileBank::Index {
   flann::Matrix<float> data;
   flann::Index<flann::L2<float>> index;
-  Index(float* features, std::size_t rows, std::size_t cols, int trees)
-      : data(features, rows, cols), index(data, flann::KDTreeIndexParams(trees)) {}
+  // Exact (linear) search: the bank is small (about 10^3 × 96), a scan
+  // takes microseconds, and FLANN's randomised k-d trees would make answers
+  // differ from run to run (their shuffling is seeded from random_device).
+  Index(float* features, std::size_t rows, std::size_t cols)
+      : data(features, rows, cols), index(data, flann::LinearIndexParams()) {}
 };
 
 namespace {
@@ -44,7 +47,6 @@ absl::Status ProfileBankOptions::Validate() const {
   if (!(min_blur_rad > 0.0 && max_blur_rad > min_blur_rad) || num_blurs < 2) {
     return absl::InvalidArgumentError("need 0 < min_blur_rad < max_blur_rad and num_blurs >= 2");
   }
-  if (trees < 1 || checks < 1) return absl::InvalidArgumentError("trees and checks must be >= 1");
   return absl::OkStatus();
 }
 
@@ -78,7 +80,7 @@ absl::StatusOr<std::unique_ptr<ProfileBank>> ProfileBank::Build(const ProfileBan
     }
   }
   bank->index_ = std::make_unique<Index>(bank->features_.data(), bank->entries_.size(),
-                                         static_cast<std::size_t>(n), options.trees);
+                                         static_cast<std::size_t>(n));
   bank->index_->index.buildIndex();
   return bank;
 }
@@ -175,7 +177,7 @@ absl::StatusOr<std::vector<BankMatch>> ProfileBank::Nearest(const Profile& profi
   flann::Matrix<float> q(query.data(), 1, n);
   flann::Matrix<int> idx(indices.data(), 1, kk);
   flann::Matrix<float> dist(distances.data(), 1, kk);
-  index_->index.knnSearch(q, idx, dist, kk, flann::SearchParams(options_.checks));
+  index_->index.knnSearch(q, idx, dist, kk, flann::SearchParams(flann::FLANN_CHECKS_UNLIMITED));
   std::vector<BankMatch> out;
   for (int i = 0; i < kk; ++i) {
     if (indices[i] < 0) continue;

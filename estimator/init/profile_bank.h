@@ -9,7 +9,7 @@
 // scatter and diffuse vary slowly there), the geometric factor
 // cos(α/2)/(cos φ·cos β) divided out, negatives cleared, unit length. The
 // nearest entries (Euclidean, i.e. the best-correlated shapes) are found with
-// a FLANN k-d tree forest.
+// FLANN's exact linear index (deterministic; the bank is small).
 #ifndef WEAVEFIT_ESTIMATOR_INIT_PROFILE_BANK_H_
 #define WEAVEFIT_ESTIMATOR_INIT_PROFILE_BANK_H_
 
@@ -32,8 +32,6 @@ struct ProfileBankOptions {
   double min_blur_rad = 0.15 * 3.14159265358979323846 / 180.0;
   double max_blur_rad = 3.0 * 3.14159265358979323846 / 180.0;
   int num_blurs = 10;
-  int trees = 4;     // FLANN randomised k-d trees
-  int checks = 256;  // leaves visited per search
 
   absl::Status Validate() const;
 };

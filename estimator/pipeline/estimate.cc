@@ -191,6 +191,9 @@ double MaxSlopeUpperBound(const Profile& profile, double mirror_rad, double phas
   }
   if (!(w_sum > 0.0)) return 0.0;
   const double sigma = std::sqrt(w_b2 / w_sum);
+  // A lobe still high at the window's ends is cut by the baseline and its
+  // width underestimated: no bound then.
+  if (sigma > 0.3 * kWindow) return 0.0;
   return std::tan(std::min(std::sqrt(2.0) * sigma, 80.0 * kDeg));
 }
 
@@ -200,7 +203,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
                         const Acquisition& acquisition, const PeakPickingResult& peaks,
                         double pixel_noise, const EstimateOptions& options,
                         Estimate* estimate) {
-  if (!peaks.split_resolved) {
+  if (!peaks.split_resolved || !estimate->max_slope.resolved) {
     estimate->warnings.push_back(
         "wavelength and amplitude unresolved: with no split there are no "
         "glints along the arc to time the thread period by");
@@ -321,8 +324,9 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
   estimate->model = best.model;
   estimate->specular_azimuth_rad = {best.mirror_rad, best.mirror_stderr_rad, true};
   if (best.model == ProfileModel::kSmooth) {
-    estimate->peak_spacing_rad = {};
-    estimate->max_slope = {};
+    // Keep peak picking's upper bound, when it set one.
+    estimate->peak_spacing_rad = {0.0, 0.0, false, estimate->peak_spacing_rad.upper_bound};
+    estimate->max_slope = {0.0, 0.0, false, estimate->max_slope.upper_bound};
   } else {
     // The fit's covariance does not see the comb of glints (its residuals
     // are correlated): keep at least peak picking's error, which counts it.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -60,8 +61,15 @@ absl::StatusOr<JointEstimate> CombineEstimates(const std::vector<PhotographEstim
   JointEstimate joint;
   // The model: the one most photographs chose; a tie goes to the model whose
   // photographs measured the slope most precisely.
+  // A photograph whose split hides in its blur reads SMOOTH: SMOOTH wins
+  // only when no photograph resolved a split.
+  bool any_split = false;
+  for (const PhotographEstimate& p : photographs) {
+    any_split = any_split || (p.model != ProfileModel::kSmooth && p.max_slope.resolved);
+  }
   std::map<ProfileModel, std::pair<int, double>> votes;  // count, best relative error
   for (const PhotographEstimate& p : photographs) {
+    if (any_split && p.model == ProfileModel::kSmooth) continue;
     auto& v = votes.try_emplace(p.model, 0, 1e300).first->second;
     ++v.first;
     if (p.max_slope.resolved && p.max_slope.value > 0.0) {
@@ -76,16 +84,18 @@ absl::StatusOr<JointEstimate> CombineEstimates(const std::vector<PhotographEstim
     }
   }
   joint.model = best->first;
-  if (votes.size() > 1) {
+  std::set<ProfileModel> seen;
+  for (const PhotographEstimate& p : photographs) seen.insert(p.model);
+  if (seen.size() > 1) {
     std::string list;
     for (const PhotographEstimate& p : photographs) {
       absl::StrAppend(&list, list.empty() ? "" : ", ", p.name, " ", ProfileModelName(p.model));
     }
     joint.warnings.push_back(absl::StrCat(
         "the photographs disagree on the thread profile (", list, "); the joint estimate uses ",
-        ProfileModelName(joint.model), " and only the photographs that read it"));
+        ProfileModelName(joint.model), " and only the photographs that read it",
+        any_split ? " (a SMOOTH reading is a split hidden in that photograph's blur)" : ""));
   }
-
   std::vector<Quantity> slopes;
   std::vector<Quantity> wavelengths;
   for (const PhotographEstimate& p : photographs) {
@@ -102,6 +112,14 @@ absl::StatusOr<JointEstimate> CombineEstimates(const std::vector<PhotographEstim
       const double s = m.quantity.value;
       joint.peak_spacing_rad = {2.0 * std::atan(s), 2.0 * m.quantity.stderr_value / (1.0 + s * s),
                                 true};
+      for (const PhotographEstimate& p : photographs) {
+        if (!p.max_slope.resolved && p.max_slope.upper_bound > 0.0 &&
+            s > p.max_slope.upper_bound + 2.0 * m.quantity.stderr_value) {
+          joint.warnings.push_back(absl::StrFormat(
+              "the joint max slope %.3f exceeds the bound %.3f that %s's unresolved split sets",
+              s, p.max_slope.upper_bound, p.name));
+        }
+      }
       if (m.chi2 > kDisagreeChi2) {
         joint.warnings.push_back(absl::StrFormat(
             "the photographs' max slopes scatter %.1f times more than their errors allow "

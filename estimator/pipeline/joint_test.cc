@@ -69,6 +69,27 @@ TEST(JointTest, TheMajorityModelWinsAndTheOthersAreLeftOut) {
   EXPECT_NE(j->warnings[0].find("disagree on the thread profile"), std::string::npos);
 }
 
+// Two photographs whose small split hides in their blur read SMOOTH; the one
+// that resolves it decides, and the others' bounds are checked against it.
+TEST(JointTest, HiddenSplitsDoNotOutvoteAResolvedOne) {
+  PhotographEstimate hidden_a = Photo("60", ProfileModel::kSmooth, 0, 0);
+  hidden_a.max_slope.upper_bound = 0.06;
+  PhotographEstimate hidden_b = Photo("110", ProfileModel::kSmooth, 0, 0);
+  hidden_b.max_slope.upper_bound = 0.03;
+  absl::StatusOr<JointEstimate> j =
+      CombineEstimates({Photo("10", ProfileModel::kSinusoid, 0.05, 0.003), hidden_a, hidden_b});
+  ASSERT_TRUE(j.ok());
+  EXPECT_EQ(j->model, ProfileModel::kSinusoid);
+  ASSERT_TRUE(j->max_slope.resolved);
+  EXPECT_NEAR(j->max_slope.value, 0.05, 1e-12);
+  bool bound_warned = false;
+  for (const std::string& w : j->warnings) {
+    bound_warned = bound_warned || (w.find("110") != std::string::npos &&
+                                    w.find("exceeds the bound") != std::string::npos);
+  }
+  EXPECT_TRUE(bound_warned);  // 0.05 > 0.03 + 2·0.003
+}
+
 TEST(JointTest, SmoothSamplesHaveNoSlope) {
   absl::StatusOr<JointEstimate> j =
       CombineEstimates({Photo("a", ProfileModel::kSmooth, 0, 0), Photo("b", ProfileModel::kSmooth, 0, 0)});

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -62,7 +63,9 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
         sum_sq += static_cast<double>(row[x]) * row[x];
       }
       const int n = x1 - x0 + 1;
-      spread.push_back({sum_sq - sum * sum / n, y});
+      const double v = sum_sq - sum * sum / n;
+      // A non-finite row (NaN pixels from a direct caller) ranks last.
+      spread.push_back({std::isfinite(v) ? v : -std::numeric_limits<double>::infinity(), y});
     }
     std::nth_element(spread.begin(), spread.begin() + options.max_rows, spread.end(),
                      [](const auto& a, const auto& b) { return a.first > b.first; });

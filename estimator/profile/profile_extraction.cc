@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -173,11 +172,12 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     double* sum = cs.sum.data() + at0;
     double* count = cs.count.data() + at0;
     double* saturated = cs.saturated.data() + at0;
-    // A row with no masked pixel in its span takes the plain sum (memchr is
-    // vectorised in libc).
+    // A row with no masked pixel in its span takes the plain sum
+    // (countNonZero is vectorised).
     if (mask != nullptr && dx_hi >= dx_lo &&
-        std::memchr(mask + b0 + dx_lo, 1, static_cast<std::size_t>(dx_hi - dx_lo + 1)) == nullptr) {
-      mask = nullptr;
+        cv::countNonZero(cv::Mat(1, dx_hi - dx_lo + 1, CV_8U,
+                                 const_cast<std::uint8_t*>(mask + b0 + dx_lo))) == 0) {
+      mask = nullptr;  // any nonzero byte is a masked pixel (Image::IsSaturated)
     }
     if (mask == nullptr) {
       if (dx_hi >= dx_lo) {

@@ -40,7 +40,8 @@ ProfileModel ModelFromProto(v1::ProfileModel model) {
 }
 
 Quantity QuantityFromProto(const v1::Measurement& m) {
-  return m.resolved() ? Quantity{m.value(), m.stderr(), true} : Quantity{};
+  return m.resolved() ? Quantity{m.value(), m.stderr(), true, 0.0}
+                      : Quantity{0.0, 0.0, false, m.upper_bound()};
 }
 
 void SetMeasurement(const Quantity& q, double scale, v1::Measurement* out) {
