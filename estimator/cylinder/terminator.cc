@@ -31,6 +31,8 @@ constexpr double kMinLitWindowPx = 2.0;
 // the window, and the fit's reduced chi-square stay below this.
 constexpr double kMinRiseSigmas = 10.0;
 constexpr double kMaxReducedChi2 = 6.0;
+constexpr double kSharpRadiusPx = 0.25;
+constexpr double kSharpRadiusFraction = 1e-3;
 
 // One bin of the tilt-corrected profile across the terminator.
 struct Bin {
@@ -290,7 +292,23 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
     const bool first = f1.chi2 < f2.chi2;
     const Fit f = first ? f1 : f2;
     const double r_fine = first ? x1 : x2;
-    const double penalty = mask == 3 ? std::log(static_cast<double>(bins.size())) : 0.0;
+    double penalty = mask == 3 ? std::log(static_cast<double>(bins.size())) : 0.0;
+    if (mask == 3) {
+      // Both terms are the physics (axial threads always scatter); they
+      // are left to BIC only while the data cannot tell them apart. When the
+      // two-term fit places the radius to better than kSharpRadiusPx or
+      // kSharpRadiusFraction of it (its chi-square curvature, scaled by the
+      // reduced chi-square), it is kept without a penalty: a single-term fit
+      // is biased by the step it leaves out by more than that, by pixels on
+      // large images (12 Mpx render: 4 px in the radius).
+      const double h = 0.5;
+      const double d2 = chi2_at(r_fine + h).chi2 + chi2_at(r_fine - h).chi2 - 2.0 * f.chi2;
+      const double reduced = std::max(1.0, f.chi2 / std::max<double>(1.0, bins.size() - 5.0));
+      const double sharp = std::max(kSharpRadiusPx, kSharpRadiusFraction * r_fine);
+      if (std::isfinite(d2) && d2 > 0.0 && h * std::sqrt(2.0 / d2) * std::sqrt(reduced) < sharp) {
+        penalty = -1e300;
+      }
+    }
     if (f.chi2 + penalty < best_chi2) {
       best_chi2 = f.chi2 + penalty;
       fit = f;
