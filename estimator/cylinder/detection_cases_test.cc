@@ -332,6 +332,20 @@ TEST(DarkLimbTest, InferredUnderASawtoothLobeWithClippedGlints) {
   ExpectInferredDarkLimb(scene);
 }
 
+// A larger photograph (1600×1200, R = 640 px, ≈ 2 s to render): the faint
+// grazing-scatter step at the terminator, left out, would move it by pixels.
+TEST(DarkLimbTest, InferredOnALargerPhotograph) {
+  RenderScene scene = DarkLimbScene(110.0);
+  scene.width_px = 1600;
+  scene.height_px = 1200;
+  scene.center_x_px = 799.75;
+  scene.radius_px = 640.0;
+  scene.samples_per_pixel = 2;
+  scene.diffuse = 0.05;
+  scene.seed = 2;
+  ExpectInferredDarkLimb(scene);
+}
+
 // Without a lit terminator (no Lambertian term) nothing places the unlit
 // limb, and nor is the lit limb seen beyond the lobe: a clear error, never a
 // confident wrong cylinder.

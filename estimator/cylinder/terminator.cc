@@ -32,7 +32,7 @@ constexpr double kMinLitWindowPx = 2.0;
 constexpr double kMinRiseSigmas = 10.0;
 constexpr double kMaxReducedChi2 = 6.0;
 constexpr double kSharpRadiusPx = 0.25;
-constexpr double kSharpRadiusFraction = 1e-3;
+constexpr double kSharpRadiusFraction = 2e-3;
 
 // One bin of the tilt-corrected profile across the terminator.
 struct Bin {
@@ -300,7 +300,7 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
       // kSharpRadiusFraction of it (its chi-square curvature, scaled by the
       // reduced chi-square), it is kept without a penalty: a single-term fit
       // is biased by the step it leaves out by more than that, by pixels on
-      // large images (12 Mpx render: 4 px in the radius).
+      // large images (12 Mpx render: 4 px in the radius; 1600×1200, R 640: 1 px).
       const double h = 0.5;
       const double d2 = chi2_at(r_fine + h).chi2 + chi2_at(r_fine - h).chi2 - 2.0 * f.chi2;
       const double reduced = std::max(1.0, f.chi2 / std::max<double>(1.0, bins.size() - 5.0));
