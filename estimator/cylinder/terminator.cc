@@ -306,7 +306,7 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
       const double reduced = std::max(1.0, f.chi2 / std::max<double>(1.0, bins.size() - 5.0));
       const double sharp = std::max(kSharpRadiusPx, kSharpRadiusFraction * r_fine);
       if (std::isfinite(d2) && d2 > 0.0 && h * std::sqrt(2.0 / d2) * std::sqrt(reduced) < sharp) {
-        penalty = -1e300;
+        penalty = 0.0;  // nested: its chi-square is never above a single term's
       }
     }
     if (f.chi2 + penalty < best_chi2) {
