@@ -39,7 +39,10 @@ struct JointEstimate {
   std::vector<std::string> warnings;
 };
 
-// The joint estimate: the model most photographs chose; the max slope and
+// The joint estimate: the model most photographs chose (a photograph whose
+// split hides in its blur reads SMOOTH and does not vote against one that
+// resolves the split; its upper bound is checked against the joint slope
+// instead, with a warning when exceeded); the max slope and
 // the wavelength as inverse-variance weighted means over the photographs
 // that resolved them (with the model chosen), which is the maximum-
 // likelihood joint value when each photograph's nuisance parameters are its
