@@ -570,8 +570,16 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         const double width = spacing_of(azimuth_of(lh), azimuth_of(rh));
         const double a = UnpullSinusoidSpacing(result.spacing_rad, width);
         const double corrected = 2.0 * a;
-        if (std::isfinite(a) && corrected > result.spacing_rad &&
-            corrected < 2.0 * result.spacing_rad) {
+        if (std::isfinite(a) && corrected >= 2.0 * result.spacing_rad) {
+          // The split barely clears the blur: a correction this large rests
+          // on the table's far end. Keep the spacing read, and count the
+          // whole correction in its error.
+          pull_rad = corrected - result.spacing_rad;
+          result.warnings.push_back(absl::StrFormat(
+              "the split barely clears the blur: the peaks stand %.2f deg apart, but the "
+              "lobe's width allows up to %.2f deg; the difference is counted in the error",
+              result.spacing_rad / kDeg, corrected / kDeg));
+        } else if (std::isfinite(a) && corrected > result.spacing_rad) {
           const double gain = corrected / result.spacing_rad;
           for (double& sp : spacings) sp *= gain;
           // A quarter of the correction for what the table leaves out (the
