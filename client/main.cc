@@ -176,6 +176,16 @@ absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& hea
   return ReplyFromEstimate(*estimate, header.sample_name());
 }
 
+// A message in protobuf's JSON mapping on one line, every field printed.
+std::string JsonLine(const google::protobuf::Message& message) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.always_print_primitive_fields = true;
+  std::string json;
+  // Cannot fail for a well-formed generated message.
+  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+  return json;
+}
+
 // estimate and submit differ only in where the work is done.
 int RunEstimates(const EstimateFlags& flags, bool remote) {
   if (flags.phase_angles_deg.size() > 1 && flags.phase_angles_deg.size() != flags.images.size()) {
@@ -203,13 +213,7 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
       return EstimateInProcess(*header, *bytes, flags.profile_csv);
     }();
     if (reply.ok()) {
-      if (flags.json) {
-        google::protobuf::util::JsonPrintOptions options;
-        options.always_print_primitive_fields = true;
-        std::string json;
-        (void)google::protobuf::util::MessageToJsonString(*reply, &json, options);
-        std::cout << json << "\n";
-      }
+      if (flags.json) std::cout << JsonLine(*reply) << "\n";
       row.reply = *reply;
       photographs.push_back(PhotographFromReply(*reply));
       names.push_back(reply->sample_name());
@@ -237,11 +241,7 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
     } else {
       const v1::JointEstimate proto = JointToProto(*joint, names);
       if (flags.json) {
-        google::protobuf::util::JsonPrintOptions options;
-        options.always_print_primitive_fields = true;
-        std::string json;
-        (void)google::protobuf::util::MessageToJsonString(proto, &json, options);
-        std::cout << "{\"joint\":" << json << "}\n";
+        std::cout << "{\"joint\":" << JsonLine(proto) << "}\n";
       } else {
         std::cout << FormatJoint(proto);
       }

@@ -130,10 +130,10 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   double best_sse = std::numeric_limits<double>::infinity();
   // Edges within a pixel of e0: every 0.05 px, then every 0.005 px around
   // the best.
+  std::vector<double> cov(xs.size()), integral(xs.size()), y(xs.size());
   auto consider = [&](double e) {
     // Normal equations for (B, S) on y = v − bg·(1 − cov) = B·cov + S·I.
     double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
-    std::vector<double> cov(xs.size()), integral(xs.size()), y(xs.size());
     for (std::size_t i = 0; i < xs.size(); ++i) {
       const int x = xs[i];
       const double d_lo = inward > 0 ? x - 0.5 - e : e - x - 0.5;

@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "estimator/stats/golden_section.h"
 #include "estimator/stats/median.h"
 
 namespace weavefit {
@@ -267,31 +268,9 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
     auto chi2_at = [&](double r) {
       return FitTerms(bins, TermsAt(bins, r, side, alpha, projection, sub), mask);
     };
-    double lo = rc - step;
-    double hi = rc + step;
-    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-    double x1 = hi - g * (hi - lo);
-    double x2 = lo + g * (hi - lo);
-    Fit f1 = chi2_at(x1);
-    Fit f2 = chi2_at(x2);
-    while (hi - lo > 0.01) {
-      if (f1.chi2 < f2.chi2) {
-        hi = x2;
-        x2 = x1;
-        f2 = f1;
-        x1 = hi - g * (hi - lo);
-        f1 = chi2_at(x1);
-      } else {
-        lo = x1;
-        x1 = x2;
-        f1 = f2;
-        x2 = lo + g * (hi - lo);
-        f2 = chi2_at(x2);
-      }
-    }
-    const bool first = f1.chi2 < f2.chi2;
-    const Fit f = first ? f1 : f2;
-    const double r_fine = first ? x1 : x2;
+    const double r_fine = GoldenSectionMinimum([&](double r) { return chi2_at(r).chi2; },
+                                               rc - step, rc + step, 0.01);
+    const Fit f = chi2_at(r_fine);
     double penalty = mask == 3 ? std::log(static_cast<double>(bins.size())) : 0.0;
     if (mask == 3) {
       // Both terms are the physics (axial threads always scatter); they

@@ -7,6 +7,7 @@
 
 #include "absl/status/status.h"
 #include "estimator/stats/smooth.h"
+#include "estimator/stats/golden_section.h"
 #include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -194,15 +195,8 @@ const BlurPullTable& PullTable() {
         return sum;
       };
       // f rises from the valley at 0 to the outer maximum, then falls.
-      double lo = 0.0;
-      double hi = rho + 4.0;
-      const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-      for (int it = 0; it < 60; ++it) {
-        const double x1 = hi - g * (hi - lo);
-        const double x2 = lo + g * (hi - lo);
-        if (f(x1) < f(x2)) lo = x1; else hi = x2;
-      }
-      const double peak = 0.5 * (lo + hi);
+      const double peak = GoldenSectionMinimum([&](double x) { return -f(x); }, 0.0, rho + 4.0,
+                                               1e-10 * (rho + 4.0));
       if (peak < 0.05) continue;  // no split at this ρ
       const double target = 0.5 * f(peak);
       double a = peak;
