@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 """Accuracy of `weavefit estimate` on the fixtures against their truth sidecars.
 
-Usage: scripts/fixture_stats.py [MODE ...]   (default: fast balanced accurate)
+Usage: scripts/fixture_stats.py [-v] [MODE ...]   (default: fast balanced accurate)
 Needs the built client (build/client/weavefit); standard library only.
 One line per mode: models right, peak-spacing error (median, 90th percentile,
 max) where the split is resolvable, share within 3 stated standard errors,
 max-slope, wavelength and amplitude relative errors (median), and the median
-in-process time per fixture (sum of the reply's stage timings).
+in-process time per fixture (sum of the reply's stage timings). With -v, also
+one line per fixture: method, spacing error and its stated error, time.
 """
 import glob
 import json
@@ -30,7 +31,7 @@ def median(values):
     return statistics.median(values) if values else float("nan")
 
 
-def main(modes):
+def main(modes, verbose=False):
     images = sorted(f for f in glob.glob(os.path.join(ROOT, "fixtures", "*"))
                     if not f.endswith((".json", ".sh")))
     for mode in modes:
@@ -60,6 +61,10 @@ def main(modes):
                 compared += 1
                 covered += error <= 3 * e["peakSpacingDeg"]["stderr"]
                 slope.append(abs(e["maxSlope"]["value"] / truth["maxSlope"] - 1))
+                if verbose:
+                    print(f"  {name:32s} {e['method']:14s} spacing "
+                          f"{e['peakSpacingDeg']['value'] - truth['peakSpacingDeg']:+.3f} "
+                          f"± {e['peakSpacingDeg']['stderr']:.3f} deg  {times[-1]:.0f} ms")
             if e["wavelengthMm"]["resolved"]:
                 wavelength.append(abs(e["wavelengthMm"]["value"] / truth["wavelengthMm"] - 1))
             if e["amplitudeMm"]["resolved"]:
@@ -73,4 +78,5 @@ def main(modes):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["fast", "balanced", "accurate"])
+    args = [a for a in sys.argv[1:] if a != "-v"]
+    main(args or ["fast", "balanced", "accurate"], verbose="-v" in sys.argv[1:])

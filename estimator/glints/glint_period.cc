@@ -70,7 +70,8 @@ double ExpNeg(double x) {
 // and y = m·cos(…), r = arctan((a − y)/(1 + a·y)); only |r| < 4σ (a few
 // hundredths of a radian) counts, where arctan(x) = x to within x³/3, so the
 // arctangent is dropped (a relative error below 1e-3 in r).
-double RowScore(const RowGlints& row, double k, double m, double sigma, int phases) {
+double RowScore(const RowGlints& row, double k, double m, double sigma, int phases,
+                int* best_phase = nullptr) {
   const double inv = 1.0 / (2.0 * sigma * sigma);
   const double reach = 16.0 * sigma * sigma;  // beyond 4σ a glint adds < 4e-4
   const std::size_t n = row.s_mm.size();
@@ -111,12 +112,51 @@ double RowScore(const RowGlints& row, double k, double m, double sigma, int phas
         score += ExpNeg(r * r * inv);
       }
     }
-    best = std::max(best, score);
+    if (score > best) {
+      best = score;
+      if (best_phase != nullptr) *best_phase = p;
+    }
   }
   return best;
 }
 
+// One row's glints in the form RowScore takes (empty when it has fewer than
+// three).
+RowGlints RowGlintsOf(const ArcSignals& signals, int r, const GlintModel& model,
+                      const GlintPeriodOptions& options) {
+  const int n = signals.num_samples;
+  const std::vector<double> at =
+      FindGlints(signals.Row(r), &signals.valid[static_cast<std::size_t>(r) * n], n,
+                 std::max(model.pixel_noise, 1e-6), options);
+  RowGlints row;
+  if (at.size() < 3) return row;
+  for (double x : at) {
+    const double phi = signals.first_azimuth_rad + x * signals.step_rad;
+    row.s_mm.push_back(signals.radius_mm * phi);
+    row.lhs.push_back(phi - 0.5 * (model.phase_angle_rad + ViewAngleRad(phi, model.projection)));
+    row.tan_lhs.push_back(std::tan(row.lhs.back()));
+  }
+  return row;
+}
+
 }  // namespace
+
+std::vector<double> RowPhasesMm(const ArcSignals& signals, const GlintModel& model,
+                                double wavelength_mm, const GlintPeriodOptions& options) {
+  constexpr int kPhases = 96;
+  const double k = 2.0 * M_PI / wavelength_mm;
+  const double pixel_rad = model.mm_per_px / signals.radius_mm;
+  const double tolerance = std::max(1.5 * pixel_rad, 0.5 * model.max_slope * M_PI / kPhases);
+  std::vector<double> phases(signals.rows.size(), std::nan(""));
+  for (std::size_t r = 0; r < signals.rows.size(); ++r) {
+    const RowGlints row = RowGlintsOf(signals, static_cast<int>(r), model, options);
+    if (row.s_mm.empty()) continue;
+    int best = 0;
+    if (RowScore(row, k, model.max_slope, tolerance, kPhases, &best) <= 0.0) continue;
+    phases[r] = (2.0 * M_PI * best / kPhases) / k;
+  }
+  return phases;
+}
 
 absl::Status GlintPeriodOptions::Validate() const {
   if (!(min_px_per_period >= 2.0)) return absl::InvalidArgumentError("min_px_per_period must be >= 2");
@@ -157,17 +197,8 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
   std::vector<RowGlints> rows;
   int total = 0;
   for (std::size_t r = 0; r < signals.rows.size(); ++r) {
-    const std::vector<double> at =
-        FindGlints(signals.Row(static_cast<int>(r)), &signals.valid[r * n], n,
-                   std::max(model.pixel_noise, 1e-6), options);
-    if (at.size() < 3) continue;
-    RowGlints row;
-    for (double x : at) {
-      const double phi = signals.first_azimuth_rad + x * signals.step_rad;
-      row.s_mm.push_back(signals.radius_mm * phi);
-      row.lhs.push_back(phi - 0.5 * (model.phase_angle_rad + ViewAngleRad(phi, model.projection)));
-      row.tan_lhs.push_back(std::tan(row.lhs.back()));
-    }
+    RowGlints row = RowGlintsOf(signals, static_cast<int>(r), model, options);
+    if (row.s_mm.empty()) continue;
     total += static_cast<int>(row.s_mm.size());
     rows.push_back(std::move(row));
   }
@@ -216,6 +247,7 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
   double best_lambda = 0.0;
   double best_score = -1.0;
   const double coarse_from = std::max(shortest_mm, window_mm / options.max_periods);
+  std::vector<std::pair<double, double>> scan;  // (period, score)
   for (double lambda = coarse_from; lambda <= longest_mm; lambda *= 1.02) {
     double sum = 0.0;
     int count = 0;
@@ -224,9 +256,24 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
       count += static_cast<int>(rows[r].s_mm.size());
     }
     const double score = sum / std::max(count, 1);
+    scan.push_back({lambda, score});
     if (score > best_score) {
       best_score = score;
       best_lambda = lambda;
+    }
+  }
+  // The scan's local maxima, best first, for a stronger test to choose
+  // from when the best is too weak to call.
+  {
+    std::vector<std::pair<double, double>> peaks;
+    for (std::size_t i = 0; i < scan.size(); ++i) {
+      const bool left = i == 0 || scan[i].second > scan[i - 1].second;
+      const bool right = i + 1 == scan.size() || scan[i].second >= scan[i + 1].second;
+      if (left && right) peaks.push_back({scan[i].second, scan[i].first});
+    }
+    std::sort(peaks.rbegin(), peaks.rend());
+    for (std::size_t i = 0; i < peaks.size() && i < 4; ++i) {
+      result.candidates_mm.push_back(peaks[i].second);
     }
   }
   // Fine: 0.2 % steps within ±4 % of it, finer phases, per-row scores kept
@@ -245,6 +292,7 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
       std::max_element(fine_total.begin(), fine_total.end()) - fine_total.begin();
   const double lambda = fine[best_i];
   result.explained = fine_total[best_i] / total;
+  result.candidate_mm = lambda;
   const double half = total_score(0.5 * lambda, tolerance(1.5, 96), 96);
   const double twice = 2.0 * lambda <= longest_mm * 1.5 ? total_score(2.0 * lambda, tolerance(1.5, 96), 96) : 0.0;
   if (total < options.min_glints || result.explained < options.min_explained ||

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "estimator/cylinder/azimuth_mapping.h"
@@ -56,6 +57,12 @@ struct GlintPeriodResult {
   int rows_used = 0;
   int glints_used = 0;
   double explained = 0.0;  // share of glints the period explains
+  // The best period searched, kept when it is rejected as unresolved (0
+  // when the search did not run), and the coarse scan's best local maxima
+  // (up to four, best first): a stronger test (glints/comb_fit.h) may still
+  // confirm one.
+  double candidate_mm = 0.0;
+  std::vector<double> candidates_mm;
   // Why the period is unresolved, in words (empty when resolved).
   std::string reason;
 };
@@ -73,6 +80,12 @@ struct GlintModel {
 absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
                                                       const GlintModel& model,
                                                       const GlintPeriodOptions& options);
+
+// Each row's weave phase c (mm) for period λ: the phase at which the row's
+// glints best satisfy the mirror equation above with model.max_slope; NaN for
+// rows with fewer than three glints. Starts the comb fit (glints/comb_fit.h).
+std::vector<double> RowPhasesMm(const ArcSignals& signals, const GlintModel& model,
+                                double wavelength_mm, const GlintPeriodOptions& options);
 
 }  // namespace weavefit
 

@@ -2,12 +2,14 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "estimator/fit/profile_fit.h"
 #include "estimator/init/profile_bank.h"
+#include "estimator/glints/comb_fit.h"
 #include "estimator/glints/glint_period.h"
 #include "estimator/profile/arc_signals.h"
 
@@ -197,6 +199,62 @@ double MaxSlopeUpperBound(const Profile& profile, double mirror_rad, double phas
   return std::tan(std::min(std::sqrt(2.0) * sigma, 80.0 * kDeg));
 }
 
+// The comb of glints fitted row by row (glints/comb_fit.h) over the whole
+// lobe and a margin beyond the peaks read (which a comb pulls inward).
+absl::StatusOr<CombFitResult> FitCombOverLobe(const Image& luminance,
+                                              const CylinderGeometry& cylinder,
+                                              const Projection& projection,
+                                              const PeakPickingResult& peaks,
+                                              const GlintModel& model, double wavelength_mm,
+                                              const CombFitOptions& options) {
+  const double half = 0.5 * peaks.spacing_rad;
+  const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;
+  const double reach = half + std::max(4.0 * kDeg, 0.25 * half);
+  ArcSignalOptions wide;
+  wide.from_rad = std::max(peaks.mirror_rad - reach, -limit);
+  wide.to_rad = std::min(peaks.mirror_rad + reach, limit);
+  wide.max_rows = 192;
+  absl::StatusOr<ArcSignals> signals = ExtractArcSignals(luminance, cylinder, projection, wide);
+  if (!signals.ok()) return signals.status();
+  absl::StatusOr<CombRows> rows = ChooseCombRows(*signals, model, wavelength_mm, options.max_rows);
+  if (!rows.ok()) return rows.status();
+  // Neighbouring columns binned so that a row holds at most
+  // max_samples_per_row bins.
+  const double columns = (OffsetFromAzimuth(wide.to_rad, projection) -
+                          OffsetFromAzimuth(wide.from_rad, projection)) *
+                         cylinder.radius_px / std::cos(cylinder.axis_angle_rad);
+  const int bin = std::max(1, static_cast<int>(std::ceil(columns / options.max_samples_per_row)));
+  absl::StatusOr<ArcPixels> pixels =
+      ExtractArcPixels(luminance, cylinder, projection, rows->rows, wide.from_rad, wide.to_rad, bin);
+  if (!pixels.ok()) return pixels.status();
+  return FitGlintComb(*pixels, *rows, model, wavelength_mm, options);
+}
+
+// The comb fit's max slope, spacing, wavelength and amplitude replace the
+// profile's, with its cluster-robust errors and the model floors.
+void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options, Estimate* estimate) {
+  const double m = comb.max_slope;
+  const double m_se = std::hypot(comb.max_slope_stderr, options.slope_floor * m);
+  const double lambda = comb.wavelength_mm;
+  const double lambda_se = std::hypot(comb.wavelength_stderr_mm, options.wavelength_floor * lambda);
+  estimate->max_slope = {m, m_se, true};
+  estimate->peak_spacing_rad = {PeakSpacingRad(m), 2.0 * m_se / (1.0 + m * m), true};
+  estimate->wavelength_mm = {lambda, lambda_se, true};
+  const double h0 = m * lambda / (2.0 * M_PI);
+  estimate->amplitude_mm = {h0, h0 * std::hypot(m_se / m, lambda_se / lambda), true};
+  estimate->method = "comb-fit";
+  for (CandidateScore& c : estimate->candidates) c.selected = false;
+  estimate->candidates.push_back(
+      {ProfileModel::kSinusoid, "comb fit (glints row by row)", -comb.explained, true});
+  estimate->model = ProfileModel::kSinusoid;
+  estimate->warnings.push_back(absl::StrFormat(
+      "max slope and wavelength from the comb of glints fitted pixel by pixel over %d rows "
+      "of %d threads (the model explains %.1f%% of their variance; source blur %.2f deg, "
+      "lens blur %.2f px)",
+      comb.rows_used, comb.threads_used, 100.0 * comb.explained, comb.blur_rad / kDeg,
+      comb.psf_px));
+}
+
 // The wavelength from the glints along the rows inside the lobe, and the
 // amplitude from it and the max slope (DESIGN.md §3).
 void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder,
@@ -235,11 +293,61 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   absl::StatusOr<GlintPeriodResult> period =
       signals.ok() ? EstimateGlintPeriod(*signals, model, options.glints)
                    : absl::StatusOr<GlintPeriodResult>(signals.status());
-  if (!period.ok() || !period->resolved) {
-    estimate->warnings.push_back(absl::StrCat(
-        "wavelength and amplitude unresolved: ",
-        period.ok() ? period->reason : std::string(period.status().message())));
+  if (!period.ok()) {
+    estimate->warnings.push_back(
+        absl::StrCat("wavelength and amplitude unresolved: ", period.status().message()));
     return;
+  }
+  // The comb fit, from the period found or, when the glint count found it
+  // too weak to call, from each of its best candidates (the fit is the
+  // stronger test: a wrong period explains little of the rows; the one that
+  // explains most is kept).
+  std::vector<double> starts;
+  if (period->resolved) {
+    starts.push_back(period->wavelength_mm);
+  } else {
+    if (period->candidate_mm > 0.0) starts.push_back(period->candidate_mm);
+    for (double c : period->candidates_mm) {
+      bool near = false;
+      for (double s : starts) near |= std::fabs(c / s - 1.0) < 0.05;
+      if (!near && starts.size() < 3) starts.push_back(c);
+    }
+  }
+  const double needed =
+      period->resolved ? options.comb.min_explained : options.comb.min_explained_alone;
+  std::string comb_failure;
+  std::optional<CombFitResult> best;
+  for (double start : starts) {
+    absl::StatusOr<CombFitResult> comb =
+        FitCombOverLobe(luminance, cylinder, projection, peaks, model, start, options.comb);
+    if (comb.ok() && comb->converged && comb->explained >= needed &&
+        std::fabs(comb->wavelength_mm / start - 1.0) < 0.05 &&
+        std::fabs(comb->max_slope / peaks.max_slope - 1.0) < 0.3) {
+      if (!best || comb->explained > best->explained) best = *comb;
+      continue;
+    }
+    if (comb_failure.empty()) {
+      comb_failure = !comb.ok() ? std::string(comb.status().message())
+                     : !comb->converged
+                         ? comb->message
+                         : absl::StrFormat("it explains %.0f%% of the rows' variance at %.3f mm",
+                                           100.0 * comb->explained, comb->wavelength_mm);
+    }
+  }
+  if (best) {
+    ApplyCombFit(*best, options.comb, estimate);
+    return;
+  }
+  if (!period->resolved) {
+    estimate->warnings.push_back(absl::StrCat(
+        "wavelength and amplitude unresolved: ", period->reason,
+        comb_failure.empty() ? "" : absl::StrCat("; the comb fit does not confirm it: ", comb_failure)));
+    return;
+  }
+  if (!comb_failure.empty()) {
+    estimate->warnings.push_back(absl::StrCat(
+        "comb of glints not fitted (", comb_failure,
+        "): max slope from the profile's peaks, wavelength from the glint count"));
   }
   const double lambda = period->wavelength_mm;
   const double lambda_se = period->wavelength_stderr_mm;
@@ -249,7 +357,6 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   const double h0 = m * lambda / (2.0 * M_PI);
   const double rel = std::hypot(estimate->max_slope.stderr_value / m, lambda_se / lambda);
   estimate->amplitude_mm = {h0, h0 * rel, true};
-
 }
 
 // `accurate` mode: least-squares fits of every candidate model to the
@@ -487,6 +594,7 @@ absl::Status EstimateOptions::Validate() const {
   if (absl::Status s = detection.Validate(); !s.ok()) return s;
   if (absl::Status s = profile.Validate(); !s.ok()) return s;
   if (absl::Status s = glints.Validate(); !s.ok()) return s;
+  if (absl::Status s = comb.Validate(); !s.ok()) return s;
   return peaks.Validate();
 }
 

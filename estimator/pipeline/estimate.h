@@ -10,6 +10,7 @@
 
 #include "absl/status/statusor.h"
 #include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/glints/comb_fit.h"
 #include "estimator/glints/glint_period.h"
 #include "estimator/io/decode.h"
 #include "estimator/io/image.h"
@@ -47,6 +48,7 @@ struct EstimateOptions {
   ProfileOptions profile;
   PeakPickingOptions peaks;
   GlintPeriodOptions glints;
+  CombFitOptions comb;
   int fit_max_iterations = 100;  // accurate mode's least-squares fits
 
   absl::Status Validate() const;

@@ -76,21 +76,92 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
   }
   out.values.assign(out.rows.size() * out.num_samples, 0.0f);
   out.valid.assign(out.values.size(), 1);
+  // Each signal runs along the line through the row's axis point
+  // perpendicular to the axis (not along the image row): a thread crosses the
+  // axis at a right angle, so only then does one signal stay on one thread,
+  // with one weave phase, when the axis is tilted. Bilinear interpolation.
+  const double cos_t = std::cos(geometry.axis_angle_rad);
+  const double sin_t = std::sin(geometry.axis_angle_rad);
   for (std::size_t r = 0; r < out.rows.size(); ++r) {
     const int y = out.rows[r];
     const double axis = geometry.AxisColumn(y);
-    const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
-    const std::uint8_t* mask =
-        luminance.saturated.empty() ? nullptr
-                                    : &luminance.saturated[static_cast<std::size_t>(y) * luminance.width];
     for (int k = 0; k < out.num_samples; ++k) {
-      const double x = axis + dx[k];
+      const double d = dx[k] * cos_t;  // perpendicular distance from the axis
+      const double x = axis + d * cos_t;
+      const double yy = y + d * sin_t;
       const int x0 = std::clamp(static_cast<int>(std::floor(x)), 0, luminance.width - 2);
-      const double t = std::clamp(x - x0, 0.0, 1.0);
+      const int y0 = std::clamp(static_cast<int>(std::floor(yy)), 0, luminance.height - 2);
+      const double tx = std::clamp(x - x0, 0.0, 1.0);
+      const double ty = std::clamp(yy - y0, 0.0, 1.0);
+      const float* top = &luminance.pixels[static_cast<std::size_t>(y0) * luminance.width];
+      const float* bottom = top + luminance.width;
       const std::size_t at = r * out.num_samples + k;
-      out.values[at] = static_cast<float>((1.0 - t) * row[x0] + t * row[x0 + 1]);
-      if (mask != nullptr && (mask[x0] || mask[x0 + 1])) out.valid[at] = 0;
+      out.values[at] = static_cast<float>(
+          (1.0 - ty) * ((1.0 - tx) * top[x0] + tx * top[x0 + 1]) +
+          ty * ((1.0 - tx) * bottom[x0] + tx * bottom[x0 + 1]));
+      if (!luminance.saturated.empty()) {
+        const std::uint8_t* m0 = &luminance.saturated[static_cast<std::size_t>(y0) * luminance.width];
+        const std::uint8_t* m1 = m0 + luminance.width;
+        if (m0[x0] || m0[x0 + 1] || m1[x0] || m1[x0 + 1]) out.valid[at] = 0;
+      }
     }
+  }
+  return out;
+}
+
+absl::StatusOr<ArcPixels> ExtractArcPixels(const Image& luminance, const CylinderGeometry& geometry,
+                                           const Projection& projection,
+                                           const std::vector<int>& rows, double from_rad,
+                                           double to_rad, int bin_px) {
+  if (luminance.channels != 1) {
+    return absl::InvalidArgumentError("ExtractArcPixels needs a one-channel image");
+  }
+  const double limb = projection.VisibleLimbRad();
+  if (!(from_rad < to_rad) || from_rad <= -limb || to_rad >= limb) {
+    return absl::InvalidArgumentError("arc pixel range must lie inside the visible limb");
+  }
+  if (bin_px < 1) return absl::InvalidArgumentError("bin_px must be >= 1");
+  const double cos_t = std::cos(geometry.axis_angle_rad);
+  const double tan_t = std::tan(geometry.axis_angle_rad);
+  const double sin_t = std::sin(geometry.axis_angle_rad);
+  ArcPixels out;
+  out.bin_px = bin_px;
+  out.radius_px = geometry.radius_px;
+  out.bin_width_px = bin_px * cos_t;
+  // Horizontal offsets (px from the axis point) of the range's ends.
+  const double horizontal = geometry.radius_px / cos_t;
+  const double lo = OffsetFromAzimuth(from_rad, projection) * horizontal;
+  const double hi = OffsetFromAzimuth(to_rad, projection) * horizontal;
+  for (int y0 : rows) {
+    if (y0 < 0 || y0 >= luminance.height) {
+      return absl::InvalidArgumentError("arc pixel row outside the image");
+    }
+    const double axis = geometry.AxisColumn(y0);
+    const int x_first = std::max(static_cast<int>(std::ceil(axis + lo)), 0);
+    const int x_last = std::min(static_cast<int>(std::floor(axis + hi)), luminance.width - 1);
+    std::vector<float> values;
+    std::vector<double> offsets;
+    std::vector<std::uint8_t> valid;
+    for (int x = x_first; x + bin_px - 1 <= x_last; x += bin_px) {
+      double sum = 0.0, offset = 0.0;
+      bool ok = true;
+      for (int xx = x; xx < x + bin_px; ++xx) {
+        const int y = std::clamp(static_cast<int>(std::lround(y0 + (xx - axis) * tan_t)), 0,
+                                 luminance.height - 1);
+        const std::size_t at = static_cast<std::size_t>(y) * luminance.width + xx;
+        sum += luminance.pixels[at];
+        ok = ok && (luminance.saturated.empty() || !luminance.saturated[at]);
+        // Signed distance of the pixel centre from the axis line.
+        offset += (xx - axis) * cos_t + (y - y0) * sin_t;
+      }
+      values.push_back(static_cast<float>(sum / bin_px));
+      offsets.push_back(offset / bin_px);
+      valid.push_back(ok && std::isfinite(sum) ? 1 : 0);
+    }
+    out.rows.push_back(y0);
+    out.values.push_back(std::move(values));
+    out.offset_px.push_back(std::move(offsets));
+    out.valid.push_back(std::move(valid));
   }
   return out;
 }

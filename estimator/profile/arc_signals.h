@@ -46,6 +46,31 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
                                              const Projection& projection,
                                              const ArcSignalOptions& options);
 
+// The raw pixels of chosen rows along the arc, for fitting glints pixel by
+// pixel (glints/comb_fit.h): each signal runs along the line through the
+// row's axis point perpendicular to the axis, and takes in every image
+// column the pixel nearest that line, so that every value is one pixel's
+// exact average (no interpolation) and the signal stays on one thread when
+// the axis is tilted. Neighbouring columns are averaged into bins of
+// bin_px. Each bin carries the perpendicular distance of its centre from
+// the axis and its width, in px.
+struct ArcPixels {
+  int bin_px = 1;
+  double radius_px = 0.0;        // limb half-width, perpendicular to the axis
+  double bin_width_px = 0.0;     // one bin's width perpendicular to the axis
+  std::vector<int> rows;         // anchor row of each signal (on the axis)
+  std::vector<std::vector<float>> values;        // per row, per bin
+  std::vector<std::vector<double>> offset_px;    // per row, per bin: centre
+  std::vector<std::vector<std::uint8_t>> valid;  // 0 where a pixel clipped
+};
+
+// Columns whose centres lie between the azimuths from_rad and to_rad, in bins
+// of `bin_px` columns, for each anchor row in `rows`.
+absl::StatusOr<ArcPixels> ExtractArcPixels(const Image& luminance, const CylinderGeometry& geometry,
+                                           const Projection& projection,
+                                           const std::vector<int>& rows, double from_rad,
+                                           double to_rad, int bin_px);
+
 }  // namespace weavefit
 
 #endif  // WEAVEFIT_ESTIMATOR_PROFILE_ARC_SIGNALS_H_

@@ -1,0 +1,673 @@
+#include "estimator/glints/comb_fit.h"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_format.h"
+#include "estimator/cylinder/azimuth_mapping.h"
+#include "estimator/stats/median.h"
+
+namespace weavefit {
+namespace {
+
+// Parameters: (m, λ mm), (ln σ of the source, rad), (q: lens PSF σ =
+// sqrt(q² + 0.1²) px, which keeps it positive without a bound) shared by
+// all rows; each row's own (c mm, level A, baseline b0, baseline slope b1
+// per rad).
+constexpr int kShared = 4;
+constexpr int kOwn = 4;
+constexpr double kPsfFloorPx = 0.1;
+
+// One bin of a row: its footprint along the arc is cut into `pieces`
+// sub-intervals whose end nodes are stored in the row.
+struct Bin {
+  double value = 0.0;
+  bool valid = true;       // false where a pixel clipped: no residual
+  double from_mid = 0.0;   // φ − the window's middle, for the baseline
+  double weight = 0.0;     // sec φ / footprint: the geometry over the bin mean
+  double piece = 0.0;      // width of one sub-interval (rad)
+  int first_node = 0;
+};
+
+struct Row {
+  double phase_mm = 0.0;         // start of c
+  std::vector<Bin> bins;         // contiguous, in column order
+  std::vector<double> node_s;    // R·(φ − φ_mid) (mm)
+  std::vector<double> node_lhs;  // φ − (α + v(φ))/2 (rad)
+};
+
+// Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
+// Gaussian, miss g = lhs − arctan(m·cos(k(s + c))), and its gradient by m,
+// λ, ln σ and c. Along each sub-interval the miss is taken as linear, so
+// the Gaussian integrates to a difference of error functions. A bin whose
+// nodes all lie 8σ beyond the mirror on one side adds nothing (most bins:
+// the glints are far narrower than a pixel). Every `stride`-th node only
+// (stride divides pieces) gives a coarser, cheaper sum.
+double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m, double lambda,
+               double sigma, double c, double grad[4]) {
+  grad[0] = grad[1] = grad[2] = grad[3] = 0.0;
+  const double k = 2.0 * M_PI / lambda;
+  const double width = bin.piece * stride;
+  constexpr int kMaxNodes = 17;
+  const int nodes = pieces / stride + 1;
+  double g[kMaxNodes], h[kMaxNodes], pdf[kMaxNodes], cdf[kMaxNodes];
+  double dg[kMaxNodes][3], dh[kMaxNodes][3];  // by m, λ, c
+  bool above = true, below = true;
+  for (int n = 0; n < nodes; ++n) {
+    const int i = bin.first_node + n * stride;
+    const double arc = row.node_s[i] + c;
+    const double theta = k * arc;
+    const double cos_t = std::cos(theta), sin_t = std::sin(theta);
+    h[n] = m * cos_t;
+    g[n] = row.node_lhs[i] - std::atan(h[n]);
+    above = above && g[n] > 8.0 * sigma;
+    below = below && g[n] < -8.0 * sigma;
+    const double inv = 1.0 / (1.0 + h[n] * h[n]);
+    const double dtheta_dlambda = -arc * k / lambda;
+    // dg/dm = −cos θ/(1+h²), dg/dθ = m·sin θ/(1+h²); dh/dm = cos θ, dh/dθ = −m·sin θ.
+    dg[n][0] = -cos_t * inv;
+    dg[n][1] = m * sin_t * inv * dtheta_dlambda;
+    dg[n][2] = m * sin_t * inv * k;
+    dh[n][0] = cos_t;
+    dh[n][1] = -m * sin_t * dtheta_dlambda;
+    dh[n][2] = -m * sin_t * k;
+  }
+  if (above || below) return 0.0;
+  const double norm = 1.0 / (sigma * std::sqrt(2.0 * M_PI));
+  for (int n = 0; n < nodes; ++n) {
+    const double z = g[n] / sigma;
+    pdf[n] = norm * std::exp(-0.5 * z * z);
+    cdf[n] = 0.5 * std::erf(z * M_SQRT1_2);
+  }
+  double sum = 0.0;
+  for (int n = 1; n < nodes; ++n) {
+    const int a = n - 1, b = n;
+    if ((g[a] > 8.0 * sigma && g[b] > 8.0 * sigma) || (g[a] < -8.0 * sigma && g[b] < -8.0 * sigma)) {
+      continue;
+    }
+    const double h_mid = 0.5 * (h[a] + h[b]);
+    const double sec = std::sqrt(1.0 + h_mid * h_mid);
+    const double dsec = h_mid / sec;
+    const double delta = g[b] - g[a];
+    double piece, d_ga, d_gb, d_log_sigma;
+    if (std::fabs(delta) > 1e-2 * sigma) {
+      const double diff = cdf[b] - cdf[a];
+      piece = diff * width / delta;
+      d_gb = width * (pdf[b] / delta - diff / (delta * delta));
+      d_ga = width * (-pdf[a] / delta + diff / (delta * delta));
+      d_log_sigma = width * (-pdf[b] * g[b] + pdf[a] * g[a]) / delta;
+    } else {
+      const double z = 0.5 * (g[a] + g[b]) / sigma;
+      const double f = norm * std::exp(-0.5 * z * z);
+      piece = f * width;
+      d_ga = d_gb = -0.5 * f * z / sigma * width;
+      d_log_sigma = f * (z * z - 1.0) * width;
+    }
+    sum += sec * piece;
+    for (int p = 0; p < 3; ++p) {
+      const double d_hmid = 0.5 * (dh[a][p] + dh[b][p]);
+      grad[p == 2 ? 3 : p] += sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
+    }
+    grad[2] += sec * d_log_sigma;
+  }
+  for (int p = 0; p < 4; ++p) grad[p] *= bin.weight;
+  return sum * bin.weight;
+}
+
+// The lens PSF over a row's bins: a Gaussian of σ_bins sampled at whole bins
+// and normalised, with its derivative by ln σ_bins.
+struct Kernel {
+  int reach = 0;
+  std::vector<double> w, dw;  // index t + reach
+};
+Kernel PsfKernel(double sigma_bins) {
+  Kernel k;
+  k.reach = std::clamp(static_cast<int>(std::ceil(4.0 * sigma_bins)), 1, 24);
+  const int n = 2 * k.reach + 1;
+  k.w.resize(n);
+  k.dw.resize(n);
+  double z = 0.0, second = 0.0;
+  for (int t = -k.reach; t <= k.reach; ++t) {
+    const double u = t / sigma_bins;
+    k.w[t + k.reach] = std::exp(-0.5 * u * u);
+    z += k.w[t + k.reach];
+  }
+  for (int t = -k.reach; t <= k.reach; ++t) {
+    k.w[t + k.reach] /= z;
+    second += k.w[t + k.reach] * t * t;
+  }
+  const double inv2 = 1.0 / (sigma_bins * sigma_bins);
+  for (int t = -k.reach; t <= k.reach; ++t) {
+    k.dw[t + k.reach] = k.w[t + k.reach] * (t * t - second) * inv2;
+  }
+  return k;
+}
+
+// Everything the model needs but the row's level and baseline.
+struct Shared {
+  double m = 0.0, lambda = 0.0, log_sigma = 0.0, psf_q = 0.0;
+  double PsfPx() const { return std::hypot(psf_q, kPsfFloorPx); }
+};
+
+// The row's modelled glint shape per bin (before level and baseline): bin
+// means blurred by the PSF; with `grad` non-null, also the derivatives by
+// m, λ, ln σ, c and q (five per bin).
+std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px, const Shared& p,
+                             double c, std::vector<std::array<double, 5>>* grad) {
+  const int n = static_cast<int>(row.bins.size());
+  std::vector<double> raw(n);
+  std::vector<std::array<double, 4>> raw_grad(n);
+  const double sigma = std::exp(p.log_sigma);
+  for (int j = 0; j < n; ++j) {
+    raw[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, sigma, c, raw_grad[j].data());
+  }
+  const double psf_px = p.PsfPx();
+  const Kernel kernel = PsfKernel(psf_px / bin_px);
+  const double dlog_dq = p.psf_q / (psf_px * psf_px);
+  std::vector<double> out(n, 0.0);
+  if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0});
+  for (int j = 0; j < n; ++j) {
+    for (int t = -kernel.reach; t <= kernel.reach; ++t) {
+      const int at = std::clamp(j + t, 0, n - 1);
+      const double w = kernel.w[t + kernel.reach];
+      out[j] += w * raw[at];
+      if (grad != nullptr) {
+        for (int q = 0; q < 4; ++q) (*grad)[j][q] += w * raw_grad[at][q];
+        (*grad)[j][4] += kernel.dw[t + kernel.reach] * dlog_dq * raw[at];
+      }
+    }
+  }
+  return out;
+}
+
+// One row's residuals, in units of the noise scale: parameter blocks
+// (m, λ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
+class RowCost : public ceres::CostFunction {
+ public:
+  RowCost(const Row* row, int pieces, int bin_px, double inv_scale, const int* stride)
+      : row_(row), pieces_(pieces), bin_px_(bin_px), inv_scale_(inv_scale), stride_(stride) {
+    set_num_residuals(static_cast<int>(row->bins.size()));
+    mutable_parameter_block_sizes()->assign({2, 1, 1, kOwn});
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    Shared p;
+    p.m = parameters[0][0];
+    p.lambda = parameters[0][1];
+    p.log_sigma = parameters[1][0];
+    p.psf_q = parameters[2][0];
+    const double* own = parameters[3];
+    if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma)) return false;
+    std::vector<std::array<double, 5>> grad;
+    const std::vector<double> shape =
+        RowShape(*row_, pieces_, *stride_, bin_px_, p, own[0], jacobians != nullptr ? &grad : nullptr);
+    const int n = static_cast<int>(shape.size());
+    for (int j = 0; j < n; ++j) {
+      const Bin& b = row_->bins[j];
+      residuals[j] =
+          b.valid ? (own[1] * shape[j] + own[2] + own[3] * b.from_mid - b.value) * inv_scale_ : 0.0;
+    }
+    if (jacobians == nullptr) return true;
+    for (int j = 0; j < n; ++j) {
+      const Bin& b = row_->bins[j];
+      const double a = b.valid ? own[1] * inv_scale_ : 0.0;
+      const double one = b.valid ? inv_scale_ : 0.0;
+      if (jacobians[0] != nullptr) {
+        jacobians[0][2 * j] = a * grad[j][0];
+        jacobians[0][2 * j + 1] = a * grad[j][1];
+      }
+      if (jacobians[1] != nullptr) jacobians[1][j] = a * grad[j][2];
+      if (jacobians[2] != nullptr) jacobians[2][j] = a * grad[j][4];
+      if (jacobians[3] != nullptr) {
+        jacobians[3][kOwn * j] = a * grad[j][3];
+        jacobians[3][kOwn * j + 1] = one * shape[j];
+        jacobians[3][kOwn * j + 2] = one;
+        jacobians[3][kOwn * j + 3] = one * b.from_mid;
+      }
+    }
+    return true;
+  }
+
+ private:
+  const Row* row_;
+  int pieces_;
+  int bin_px_;
+  double inv_scale_;
+  const int* stride_;  // the fit's current stride (coarse while starting)
+};
+
+// Level and baseline of a row for a given shape, by linear least squares
+// over its valid bins (level held at zero when it comes out negative).
+// Returns the residual sum of squares.
+double SolveLinear(const Row& row, const std::vector<double>& shape, double own[kOwn]) {
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d y = Eigen::Vector3d::Zero();
+  for (std::size_t j = 0; j < row.bins.size(); ++j) {
+    if (!row.bins[j].valid) continue;
+    const Eigen::Vector3d x(shape[j], 1.0, row.bins[j].from_mid);
+    a += x * x.transpose();
+    y += x * row.bins[j].value;
+  }
+  Eigen::Vector3d sol = a.ldlt().solve(y);
+  if (!(sol[0] >= 0.0) || !sol.allFinite()) {
+    const Eigen::Vector2d two = a.bottomRightCorner<2, 2>().ldlt().solve(y.tail<2>());
+    sol = Eigen::Vector3d(0.0, two[0], two[1]);
+    if (!sol.allFinite()) sol.setZero();
+  }
+  own[1] = sol[0];
+  own[2] = sol[1];
+  own[3] = sol[2];
+  double rss = 0.0;
+  for (std::size_t j = 0; j < row.bins.size(); ++j) {
+    if (!row.bins[j].valid) continue;
+    const double r = sol[0] * shape[j] + sol[1] + sol[2] * row.bins[j].from_mid - row.bins[j].value;
+    rss += r * r;
+  }
+  return rss;
+}
+
+}  // namespace
+
+absl::Status CombFitOptions::Validate() const {
+  if (max_rows < 4) return absl::InvalidArgumentError("max_rows must be >= 4");
+  if (max_samples_per_row < 16) return absl::InvalidArgumentError("max_samples_per_row must be >= 16");
+  if (subintervals < 1 || subintervals > 16) {
+    return absl::InvalidArgumentError("subintervals must be in [1, 16]");
+  }
+  if (max_iterations < 1) return absl::InvalidArgumentError("max_iterations must be >= 1");
+  if (!(min_explained > 0.0 && min_explained <= min_explained_alone && min_explained_alone < 1.0)) {
+    return absl::InvalidArgumentError(
+        "need 0 < min_explained <= min_explained_alone < 1");
+  }
+  if (!(slope_floor >= 0.0) || !(wavelength_floor >= 0.0)) {
+    return absl::InvalidArgumentError("slope_floor and wavelength_floor must be >= 0");
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<CombRows> ChooseCombRows(const ArcSignals& signals, const GlintModel& model,
+                                        double wavelength_mm, int max_rows) {
+  if (!(wavelength_mm > 0.0) || !(model.max_slope > 0.0) || !(model.mm_per_px > 0.0)) {
+    return absl::InvalidArgumentError("comb rows need a wavelength, a max slope and mm_per_px > 0");
+  }
+  if (max_rows < 4) return absl::InvalidArgumentError("max_rows must be >= 4");
+  // Rows with a weave phase, in image order, grouped into threads: a run of
+  // neighbouring rows (at most two apart) whose phases agree within a tenth
+  // of a period. One row per thread first (the middle one), then more.
+  const std::vector<double> phases = RowPhasesMm(signals, model, wavelength_mm, GlintPeriodOptions());
+  std::vector<int> order;
+  for (std::size_t r = 0; r < phases.size(); ++r) {
+    if (std::isfinite(phases[r])) order.push_back(static_cast<int>(r));
+  }
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return signals.rows[a] < signals.rows[b]; });
+  if (order.size() < 4) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "only %zu rows hold enough glints for the comb fit", order.size()));
+  }
+  auto phase_gap = [&](int a, int b) {
+    return std::fabs(std::remainder(phases[a] - phases[b], wavelength_mm)) / wavelength_mm;
+  };
+  std::vector<std::vector<int>> threads;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    if (i == 0 || signals.rows[order[i]] - signals.rows[order[i - 1]] > 2 ||
+        phase_gap(order[i], order[i - 1]) > 0.1) {
+      threads.emplace_back();
+    }
+    threads.back().push_back(order[i]);
+  }
+  CombRows out;
+  const std::size_t count = threads.size();
+  for (std::size_t round = 0; out.rows.size() < static_cast<std::size_t>(max_rows); ++round) {
+    bool any = false;
+    // Threads evenly spread when there are more than rows to fill.
+    const std::size_t want = std::min<std::size_t>(count, max_rows - out.rows.size());
+    for (std::size_t t = 0; t < want; ++t) {
+      const std::size_t thread = t * count / want;
+      const std::vector<int>& members = threads[thread];
+      // Middle outward: round 0 the middle row, then its neighbours.
+      const std::ptrdiff_t mid = static_cast<std::ptrdiff_t>(members.size() / 2);
+      const std::ptrdiff_t step = static_cast<std::ptrdiff_t>((round + 1) / 2);
+      const std::ptrdiff_t at = round % 2 == 1 ? mid + step : mid - step;
+      if (at < 0 || at >= static_cast<std::ptrdiff_t>(members.size())) continue;
+      out.rows.push_back(signals.rows[members[at]]);
+      out.phase_mm.push_back(phases[members[at]]);
+      out.thread.push_back(static_cast<int>(thread));
+      any = true;
+    }
+    if (!any) break;
+  }
+  return out;
+}
+
+absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRows& chosen,
+                                           const GlintModel& model, double wavelength_mm,
+                                           const CombFitOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (!(wavelength_mm > 0.0) || !(model.max_slope > 0.0) || !(model.mm_per_px > 0.0)) {
+    return absl::InvalidArgumentError("comb fit needs a wavelength, a max slope and mm_per_px > 0");
+  }
+  if (pixels.rows.size() != chosen.rows.size() || pixels.rows.empty()) {
+    return absl::InvalidArgumentError("comb fit: one pixel signal per chosen row is needed");
+  }
+  const int pieces = options.subintervals;
+  const int bin_px = pixels.bin_px;
+  const double radius_mm = model.projection.radius_mm;
+  const double radius_px = pixels.radius_px;
+  auto azimuth = [&](double offset_px) {
+    return AzimuthFromOffset(std::clamp(offset_px / radius_px, -0.999999, 0.999999),
+                             model.projection);
+  };
+  // The middle of the window, which arc lengths are counted from (so that
+  // the period and the phases are not correlated through a large offset:
+  // the phase becomes c + R·φ_mid).
+  double phi_mid = 0.0;
+  {
+    double lo = 1e9, hi = -1e9;
+    for (const std::vector<double>& o : pixels.offset_px) {
+      if (o.empty()) continue;
+      lo = std::min(lo, o.front());
+      hi = std::max(hi, o.back());
+    }
+    if (!(hi > lo)) return absl::InvalidArgumentError("comb fit: the rows hold no pixels");
+    phi_mid = 0.5 * (azimuth(lo) + azimuth(hi));
+  }
+  std::vector<Row> rows;
+  std::vector<int> thread_of_row;
+  for (std::size_t r = 0; r < pixels.rows.size(); ++r) {
+    Row row;
+    row.phase_mm = chosen.phase_mm[r] + radius_mm * phi_mid;
+    int valid = 0;
+    for (std::size_t j = 0; j < pixels.values[r].size(); ++j) {
+      const double p = pixels.offset_px[r][j];
+      const double lo = azimuth(p - 0.5 * pixels.bin_width_px);
+      const double hi = azimuth(p + 0.5 * pixels.bin_width_px);
+      const double phi = azimuth(p);
+      Bin b;
+      b.value = pixels.values[r][j];
+      b.valid = pixels.valid[r][j] != 0 && std::isfinite(b.value);
+      if (!b.valid) b.value = 0.0;
+      valid += b.valid;
+      b.from_mid = phi - phi_mid;
+      b.weight = 1.0 / (std::max(std::cos(phi), 0.05) * (hi - lo));
+      b.piece = (hi - lo) / pieces;
+      b.first_node = static_cast<int>(row.node_s.size());
+      for (int q = 0; q <= pieces; ++q) {
+        const double at = lo + q * b.piece;
+        row.node_s.push_back(radius_mm * (at - phi_mid));
+        row.node_lhs.push_back(
+            at - 0.5 * (model.phase_angle_rad + ViewAngleRad(at, model.projection)));
+      }
+      row.bins.push_back(b);
+    }
+    if (valid >= 16) {
+      rows.push_back(std::move(row));
+      thread_of_row.push_back(chosen.thread[r]);
+    }
+  }
+  if (rows.size() < 4) return absl::InvalidArgumentError("too few rows left for the comb fit");
+  std::vector<int> distinct = thread_of_row;
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+
+  // Start, in plain arithmetic with each row's level and baseline solved
+  // linearly and two pieces per bin: the source blur and the lens PSF from a
+  // few trial widths, each row's phase refined on a grid of ±4 half-steps of
+  // the phase search, the max slope scanned (a comb pulls the profile's
+  // peaks inward, so the start may be off by several per cent), and the
+  // phases once more. The solver then starts close.
+  const int coarse = pieces % 2 == 0 ? pieces / 2 : 1;
+  Shared p;
+  p.m = model.max_slope;
+  p.lambda = wavelength_mm;
+  std::vector<std::array<double, kOwn>> own(rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) own[i][0] = rows[i].phase_mm;
+  auto total_rss = [&](const Shared& trial, std::vector<std::array<double, kOwn>>* out) {
+    double rss = 0.0;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      rss += SolveLinear(rows[i], RowShape(rows[i], pieces, coarse, bin_px, trial, (*out)[i][0], nullptr),
+                         (*out)[i].data());
+    }
+    return rss;
+  };
+  auto refine_phases = [&]() {
+    const double step = wavelength_mm / 192.0;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      double best = -1.0;
+      std::array<double, kOwn> keep = own[i];
+      for (int d = -4; d <= 4; ++d) {
+        std::array<double, kOwn> trial = own[i];
+        trial[0] = own[i][0] + d * step;
+        const double rss = SolveLinear(
+            rows[i], RowShape(rows[i], pieces, coarse, bin_px, p, trial[0], nullptr), trial.data());
+        if (best < 0.0 || rss < best) {
+          best = rss;
+          keep = trial;
+        }
+      }
+      own[i] = keep;
+    }
+  };
+  {
+    double best = -1.0;
+    Shared start = p;
+    for (double sigma_deg : {0.15, 0.4, 1.0}) {
+      for (double psf_px : {0.3, 1.0}) {
+        Shared trial = p;
+        trial.log_sigma = std::log(sigma_deg * M_PI / 180.0);
+        trial.psf_q = std::sqrt(psf_px * psf_px - kPsfFloorPx * kPsfFloorPx);
+        std::vector<std::array<double, kOwn>> scratch = own;
+        const double rss = total_rss(trial, &scratch);
+        if (best < 0.0 || rss < best) {
+          best = rss;
+          start = trial;
+        }
+      }
+    }
+    p = start;
+    refine_phases();
+    best = -1.0;
+    double best_m = p.m;
+    for (double f = 0.92; f <= 1.121; f += 0.02) {
+      Shared trial = p;
+      trial.m = model.max_slope * f;
+      std::vector<std::array<double, kOwn>> scratch = own;
+      const double rss = total_rss(trial, &scratch);
+      if (best < 0.0 || rss < best) {
+        best = rss;
+        best_m = trial.m;
+      }
+    }
+    p.m = best_m;
+    refine_phases();
+  }
+  // Noise scale: the median absolute residual at the start, as a σ, but no
+  // smaller than the pixel noise averaged over a bin.
+  std::vector<double> abs_res;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::vector<double> shape = RowShape(rows[i], pieces, 1, bin_px, p, own[i][0], nullptr);
+    for (std::size_t j = 0; j < rows[i].bins.size(); ++j) {
+      const Bin& b = rows[i].bins[j];
+      if (!b.valid) continue;
+      abs_res.push_back(std::fabs(own[i][1] * shape[j] + own[i][2] + own[i][3] * b.from_mid - b.value));
+    }
+  }
+  const double scale = std::max(1.4826 * Median(abs_res), model.pixel_noise / std::sqrt(bin_px));
+  if (!(scale > 0.0)) return absl::InvalidArgumentError("comb fit: the rows hold no signal");
+
+  double shared[2] = {p.m, p.lambda};
+  double log_sigma = p.log_sigma;
+  double psf_q = p.psf_q;
+  int stride = 1;
+  ceres::Problem problem;
+  int num_residuals = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    problem.AddResidualBlock(new RowCost(&rows[i], pieces, bin_px, 1.0 / scale, &stride), nullptr,
+                             shared, &log_sigma, &psf_q, own[i].data());
+    for (const Bin& b : rows[i].bins) num_residuals += b.valid;
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_SCHUR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = 1;
+  solver.logging_type = ceres::SILENT;
+  // The max slope is wanted to a few parts in 10⁴, far coarser than the
+  // solver's defaults.
+  solver.function_tolerance = 1e-5;
+  solver.parameter_tolerance = 1e-5;
+  ceres::Solver::Summary summary;
+  int iterations = 0;
+  {
+    // Continuation: the glints are far narrower than a pixel, which makes
+    // the cost rugged in the period and the phases; a wide blur smooths it
+    // (a start 2 % off in the period otherwise ends in a false minimum), so
+    // the first solve holds the source blur at three times its start (and
+    // the PSF at its start) on two pieces per bin, for a rough optimum.
+    const double keep = log_sigma;
+    log_sigma = std::max(keep + std::log(3.0), std::log(0.5 * M_PI / 180.0));
+    problem.SetParameterBlockConstant(&log_sigma);
+    problem.SetParameterBlockConstant(&psf_q);
+    ceres::Solver::Options rough = solver;
+    rough.max_num_iterations = 15;
+    rough.function_tolerance = 1e-3;
+    stride = coarse;
+    ceres::Solve(rough, &problem, &summary);
+    iterations += static_cast<int>(summary.iterations.size());
+      log_sigma = keep;
+    problem.SetParameterBlockVariable(&log_sigma);
+    problem.SetParameterBlockVariable(&psf_q);
+  }
+  // Then to convergence on half the pieces, and a polish on all of them.
+  stride = pieces % 2 == 0 ? 2 : 1;
+  ceres::Solve(solver, &problem, &summary);
+  iterations += static_cast<int>(summary.iterations.size());
+  if (stride != 1) {
+    stride = 1;
+    ceres::Solver::Options polish = solver;
+    polish.max_num_iterations = 10;
+    ceres::Solver::Summary last;
+    ceres::Solve(polish, &problem, &last);
+    iterations += static_cast<int>(last.iterations.size());
+    // The polish may stop at its iteration cap: it only refines a
+    // converged solution, whose verdict stands.
+    if (!last.IsSolutionUsable()) summary = last;
+  }
+
+  CombFitResult result;
+  result.rows_used = static_cast<int>(rows.size());
+  result.threads_used = static_cast<int>(distinct.size());
+  result.iterations = iterations;
+  result.max_slope = shared[0];
+  result.wavelength_mm = shared[1];
+  result.blur_rad = std::exp(log_sigma);
+  p.m = shared[0];
+  p.lambda = shared[1];
+  p.log_sigma = log_sigma;
+  p.psf_q = psf_q;
+  result.psf_px = p.PsfPx();
+  // No bounds in the solver (they cost it a line search per step); a result
+  // outside them is not a fit of this comb.
+  result.converged = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
+  if (result.converged &&
+      !(shared[0] > 0.5 * model.max_slope && shared[0] < std::min(2.0 * model.max_slope, 3.0) &&
+        std::fabs(shared[1] / wavelength_mm - 1.0) < 0.1 && result.blur_rad < 5.0 * M_PI / 180.0 &&
+        result.psf_px < 8.0)) {
+    result.converged = false;
+    result.message = absl::StrFormat(
+        "the fit left its range (max slope %.4f from %.4f, period %.3f mm from %.3f mm)",
+        shared[0], model.max_slope, shared[1], wavelength_mm);
+  }
+  if (!result.converged) {
+    if (result.message.empty()) result.message = summary.message;
+    return result;
+  }
+  // The share of the rows' variance about their baselines that the glints
+  // explain (near 1 for a comb the model reproduces, low for a wrong
+  // period), and the chi-square against the scale.
+  double rss = 0.0, base = 0.0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const std::vector<double> shape = RowShape(rows[i], pieces, 1, bin_px, p, own[i][0], nullptr);
+    std::array<double, kOwn> flat = own[i];
+    base += SolveLinear(rows[i], std::vector<double>(shape.size(), 0.0), flat.data());
+    for (std::size_t j = 0; j < rows[i].bins.size(); ++j) {
+      const Bin& b = rows[i].bins[j];
+      if (!b.valid) continue;
+      const double r = own[i][1] * shape[j] + own[i][2] + own[i][3] * b.from_mid - b.value;
+      rss += r * r;
+    }
+  }
+  result.explained = base > 0.0 ? 1.0 - rss / base : 0.0;
+  const int dof = std::max(num_residuals - kShared - kOwn * static_cast<int>(rows.size()), 1);
+  result.reduced_chi2 = rss / (scale * scale) / dof;
+
+  // Standard errors: the cluster-robust (sandwich) covariance over threads.
+  // The residuals of one row are correlated (the glints' shapes are not
+  // exactly the model's) and the rows of one thread share its phase, so
+  // the plain covariance, even scaled by the reduced chi-square, is far too
+  // small. Each row's own parameters are profiled out of its Jacobian; the
+  // scatter of the threads' score vectors then measures the error the data
+  // actually show.
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = {shared, &log_sigma, &psf_q};
+  for (auto& o : own) eval.parameter_blocks.push_back(o.data());
+  std::vector<double> residuals;
+  ceres::CRSMatrix jacobian;
+  if (!problem.Evaluate(eval, nullptr, &residuals, nullptr, &jacobian)) {
+    result.converged = false;
+    result.message = "the Jacobian could not be evaluated";
+    return result;
+  }
+  using Mat = Eigen::Matrix<double, kShared, kShared>;
+  using Vec = Eigen::Matrix<double, kShared, 1>;
+  Mat hessian = Mat::Zero();
+  std::vector<Vec> score(distinct.size(), Vec::Zero());
+  int at = 0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const int count = static_cast<int>(rows[i].bins.size());
+    const int own_col = kShared + kOwn * static_cast<int>(i);
+    Eigen::MatrixXd js = Eigen::MatrixXd::Zero(count, kShared);
+    Eigen::MatrixXd jo = Eigen::MatrixXd::Zero(count, kOwn);
+    for (int r = 0; r < count; ++r) {
+      for (int e = jacobian.rows[at + r]; e < jacobian.rows[at + r + 1]; ++e) {
+        const int col = jacobian.cols[e];
+        if (col < kShared) {
+          js(r, col) = jacobian.values[e];
+        } else if (col >= own_col && col < own_col + kOwn) {
+          jo(r, col - own_col) = jacobian.values[e];
+        }
+      }
+    }
+    // Project the own columns out: J̃ = Js − Jo (JoᵀJo)⁺ JoᵀJs.
+    const Eigen::MatrixXd proj =
+        (jo.transpose() * jo).completeOrthogonalDecomposition().solve(jo.transpose() * js);
+    const Eigen::MatrixXd jt = js - jo * proj;
+    const Eigen::VectorXd res = Eigen::Map<const Eigen::VectorXd>(&residuals[at], count);
+    const std::size_t t =
+        std::lower_bound(distinct.begin(), distinct.end(), thread_of_row[i]) - distinct.begin();
+    score[t] += jt.transpose() * res;
+    hessian += jt.transpose() * jt;
+    at += count;
+  }
+  Vec mean = Vec::Zero();
+  for (const Vec& g : score) mean += g;
+  mean /= static_cast<double>(score.size());
+  Mat meat = Mat::Zero();
+  for (const Vec& g : score) meat += (g - mean) * (g - mean).transpose();
+  const double clusters = static_cast<double>(score.size());
+  meat *= clusters / std::max(clusters - 1.0, 1.0);
+  const Mat inv = hessian.completeOrthogonalDecomposition().pseudoInverse();
+  const Mat cov = inv * meat * inv;
+  result.max_slope_stderr = std::sqrt(std::max(cov(0, 0), 0.0));
+  result.wavelength_stderr_mm = std::sqrt(std::max(cov(1, 1), 0.0));
+  return result;
+}
+
+}  // namespace weavefit
