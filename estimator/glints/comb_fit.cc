@@ -17,11 +17,11 @@
 namespace weavefit {
 namespace {
 
-// Parameters: (m, λ mm), (ln σ of the source, rad), (q: lens PSF σ =
-// sqrt(q² + 0.1²) px, which keeps it positive without a bound) shared by
-// all rows; each row's own (c mm, level A, baseline b0, baseline slope b1
-// per rad).
-constexpr int kShared = 4;
+// Parameters: (m, λ mm, δ rad: the mirror's offset from (α + v)/2), (ln σ
+// of the source, rad), (q: lens PSF σ = sqrt(q² + 0.1²) px, which keeps it
+// positive without a bound) shared by all rows; each row's own (c mm, level
+// A, baseline b0, baseline slope b1 per rad).
+constexpr int kShared = 5;
 constexpr int kOwn = 4;
 constexpr double kPsfFloorPx = 0.1;
 
@@ -44,15 +44,15 @@ struct Row {
 };
 
 // Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
-// Gaussian, miss g = lhs − arctan(m·cos(k(s + c))), and its gradient by m,
-// λ, ln σ and c. Along each sub-interval the miss is taken as linear, so
+// Gaussian, miss g = lhs − δ − arctan(m·cos(k(s + c))), and its gradient by
+// m, λ, ln σ, c and δ. Along each sub-interval the miss is taken as linear, so
 // the Gaussian integrates to a difference of error functions. A bin whose
 // nodes all lie 8σ beyond the mirror on one side adds nothing (most bins:
 // the glints are far narrower than a pixel). Every `stride`-th node only
 // (stride divides pieces) gives a coarser, cheaper sum.
 double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m, double lambda,
-               double sigma, double c, double grad[4]) {
-  grad[0] = grad[1] = grad[2] = grad[3] = 0.0;
+               double delta, double sigma, double c, double grad[5]) {
+  grad[0] = grad[1] = grad[2] = grad[3] = grad[4] = 0.0;
   const double k = 2.0 * M_PI / lambda;
   const double width = bin.piece * stride;
   constexpr int kMaxNodes = 17;
@@ -66,7 +66,7 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
     const double theta = k * arc;
     const double cos_t = std::cos(theta), sin_t = std::sin(theta);
     h[n] = m * cos_t;
-    g[n] = row.node_lhs[i] - std::atan(h[n]);
+    g[n] = row.node_lhs[i] - delta - std::atan(h[n]);
     above = above && g[n] > 8.0 * sigma;
     below = below && g[n] < -8.0 * sigma;
     const double inv = 1.0 / (1.0 + h[n] * h[n]);
@@ -116,8 +116,9 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
       grad[p == 2 ? 3 : p] += sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
     }
     grad[2] += sec * d_log_sigma;
+    grad[4] -= sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
   }
-  for (int p = 0; p < 4; ++p) grad[p] *= bin.weight;
+  for (int p = 0; p < 5; ++p) grad[p] *= bin.weight;
   return sum * bin.weight;
 }
 
@@ -152,35 +153,36 @@ Kernel PsfKernel(double sigma_bins) {
 
 // Everything the model needs but the row's level and baseline.
 struct Shared {
-  double m = 0.0, lambda = 0.0, log_sigma = 0.0, psf_q = 0.0;
+  double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_q = 0.0;
   double PsfPx() const { return std::hypot(psf_q, kPsfFloorPx); }
 };
 
 // The row's modelled glint shape per bin (before level and baseline): bin
 // means blurred by the PSF; with `grad` non-null, also the derivatives by
-// m, λ, ln σ, c and q (five per bin).
+// m, λ, ln σ, c, δ and q (six per bin).
 std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px, const Shared& p,
-                             double c, std::vector<std::array<double, 5>>* grad) {
+                             double c, std::vector<std::array<double, 6>>* grad) {
   const int n = static_cast<int>(row.bins.size());
   std::vector<double> raw(n);
-  std::vector<std::array<double, 4>> raw_grad(n);
+  std::vector<std::array<double, 5>> raw_grad(n);
   const double sigma = std::exp(p.log_sigma);
   for (int j = 0; j < n; ++j) {
-    raw[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, sigma, c, raw_grad[j].data());
+    raw[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, p.delta, sigma, c,
+                     raw_grad[j].data());
   }
   const double psf_px = p.PsfPx();
   const Kernel kernel = PsfKernel(psf_px / bin_px);
   const double dlog_dq = p.psf_q / (psf_px * psf_px);
   std::vector<double> out(n, 0.0);
-  if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0});
+  if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
   for (int j = 0; j < n; ++j) {
     for (int t = -kernel.reach; t <= kernel.reach; ++t) {
       const int at = std::clamp(j + t, 0, n - 1);
       const double w = kernel.w[t + kernel.reach];
       out[j] += w * raw[at];
       if (grad != nullptr) {
-        for (int q = 0; q < 4; ++q) (*grad)[j][q] += w * raw_grad[at][q];
-        (*grad)[j][4] += kernel.dw[t + kernel.reach] * dlog_dq * raw[at];
+        for (int q = 0; q < 5; ++q) (*grad)[j][q] += w * raw_grad[at][q];
+        (*grad)[j][5] += kernel.dw[t + kernel.reach] * dlog_dq * raw[at];
       }
     }
   }
@@ -188,13 +190,13 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
 }
 
 // One row's residuals, in units of the noise scale: parameter blocks
-// (m, λ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
+// (m, λ, δ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
 class RowCost : public ceres::CostFunction {
  public:
   RowCost(const Row* row, int pieces, int bin_px, double inv_scale, const int* stride)
       : row_(row), pieces_(pieces), bin_px_(bin_px), inv_scale_(inv_scale), stride_(stride) {
     set_num_residuals(static_cast<int>(row->bins.size()));
-    mutable_parameter_block_sizes()->assign({2, 1, 1, kOwn});
+    mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
   }
 
   bool Evaluate(double const* const* parameters, double* residuals,
@@ -202,11 +204,12 @@ class RowCost : public ceres::CostFunction {
     Shared p;
     p.m = parameters[0][0];
     p.lambda = parameters[0][1];
+    p.delta = parameters[0][2];
     p.log_sigma = parameters[1][0];
     p.psf_q = parameters[2][0];
     const double* own = parameters[3];
     if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma)) return false;
-    std::vector<std::array<double, 5>> grad;
+    std::vector<std::array<double, 6>> grad;
     const std::vector<double> shape =
         RowShape(*row_, pieces_, *stride_, bin_px_, p, own[0], jacobians != nullptr ? &grad : nullptr);
     const int n = static_cast<int>(shape.size());
@@ -221,11 +224,12 @@ class RowCost : public ceres::CostFunction {
       const double a = b.valid ? own[1] * inv_scale_ : 0.0;
       const double one = b.valid ? inv_scale_ : 0.0;
       if (jacobians[0] != nullptr) {
-        jacobians[0][2 * j] = a * grad[j][0];
-        jacobians[0][2 * j + 1] = a * grad[j][1];
+        jacobians[0][3 * j] = a * grad[j][0];
+        jacobians[0][3 * j + 1] = a * grad[j][1];
+        jacobians[0][3 * j + 2] = a * grad[j][4];
       }
       if (jacobians[1] != nullptr) jacobians[1][j] = a * grad[j][2];
-      if (jacobians[2] != nullptr) jacobians[2][j] = a * grad[j][4];
+      if (jacobians[2] != nullptr) jacobians[2][j] = a * grad[j][5];
       if (jacobians[3] != nullptr) {
         jacobians[3][kOwn * j] = a * grad[j][3];
         jacobians[3][kOwn * j + 1] = one * shape[j];
@@ -503,7 +507,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   const double scale = std::max(1.4826 * Median(abs_res), model.pixel_noise / std::sqrt(bin_px));
   if (!(scale > 0.0)) return absl::InvalidArgumentError("comb fit: the rows hold no signal");
 
-  double shared[2] = {p.m, p.lambda};
+  double shared[3] = {p.m, p.lambda, p.delta};
   double log_sigma = p.log_sigma;
   double psf_q = p.psf_q;
   int stride = 1;
@@ -570,6 +574,8 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   result.blur_rad = std::exp(log_sigma);
   p.m = shared[0];
   p.lambda = shared[1];
+  p.delta = shared[2];
+  result.mirror_offset_rad = shared[2];
   p.log_sigma = log_sigma;
   p.psf_q = psf_q;
   result.psf_px = p.PsfPx();
@@ -579,6 +585,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   if (result.converged &&
       !(shared[0] > 0.5 * model.max_slope && shared[0] < std::min(2.0 * model.max_slope, 3.0) &&
         std::fabs(shared[1] / wavelength_mm - 1.0) < 0.1 && result.blur_rad < 5.0 * M_PI / 180.0 &&
+        std::fabs(shared[2]) < 10.0 * M_PI / 180.0 &&
         result.psf_px < 8.0)) {
     result.converged = false;
     result.message = absl::StrFormat(
@@ -667,6 +674,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   const Mat cov = inv * meat * inv;
   result.max_slope_stderr = std::sqrt(std::max(cov(0, 0), 0.0));
   result.wavelength_stderr_mm = std::sqrt(std::max(cov(1, 1), 0.0));
+  result.mirror_offset_stderr_rad = std::sqrt(std::max(cov(2, 2), 0.0));
   return result;
 }
 

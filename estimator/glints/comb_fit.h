@@ -47,6 +47,11 @@ struct CombFitOptions {
   // 0.12 % in the period.
   double slope_floor = 0.002;
   double wavelength_floor = 0.0015;
+  // The same for the mirror azimuth (rad), and the offset from half the
+  // stated phase angle beyond 3 standard errors that is reported as an
+  // inconsistent phase angle.
+  double mirror_floor_rad = 0.03 * 3.14159265358979323846 / 180.0;
+  double mirror_tolerance_rad = 0.25 * 3.14159265358979323846 / 180.0;
 
   absl::Status Validate() const;
 };
@@ -59,6 +64,10 @@ struct CombFitResult {
   double wavelength_stderr_mm = 0.0;
   double blur_rad = 0.0;        // σ of the source in the mirror miss
   double psf_px = 0.0;          // σ of the lens PSF along the arc, px
+  // The mirror's offset from (α + v)/2: 0 when the stated phase angle is
+  // right (the fit leaves it free and so measures the phase angle: α + 2δ).
+  double mirror_offset_rad = 0.0;
+  double mirror_offset_stderr_rad = 0.0;
   double reduced_chi2 = 0.0;    // against the noise scale of the residuals
   // Share of the rows' variance about their baselines the glints explain.
   double explained = 0.0;

@@ -1,5 +1,6 @@
 #include "estimator/pipeline/estimate.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -232,7 +233,33 @@ absl::StatusOr<CombFitResult> FitCombOverLobe(const Image& luminance,
 
 // The comb fit's max slope, spacing, wavelength and amplitude replace the
 // profile's, with its cluster-robust errors and the model floors.
-void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options, Estimate* estimate) {
+void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
+                  const Acquisition& acquisition, double mirror_start_rad, Estimate* estimate) {
+  {
+    // The mirror azimuth: φ = (α + v(φ))/2 + δ, by fixed point.
+    const Projection projection = acquisition.GetProjection();
+    double phi = mirror_start_rad;
+    for (int i = 0; i < 8; ++i) {
+      phi = 0.5 * (acquisition.phase_angle_rad + ViewAngleRad(phi, projection)) +
+            comb.mirror_offset_rad;
+    }
+    const double se = std::hypot(comb.mirror_offset_stderr_rad, options.mirror_floor_rad);
+    estimate->specular_azimuth_rad = {phi, se, true};
+    // The comb's mirror replaces the peaks' in the phase-angle check.
+    estimate->warnings.erase(
+        std::remove_if(estimate->warnings.begin(), estimate->warnings.end(),
+                       [](const std::string& w) { return w.rfind("the mirror azimuth", 0) == 0; }),
+        estimate->warnings.end());
+    if (std::fabs(comb.mirror_offset_rad) > 3.0 * se + options.mirror_tolerance_rad) {
+      estimate->warnings.push_back(absl::StrFormat(
+          "the mirror azimuth %.2f deg is %.2f deg from half the stated phase angle, more than "
+          "its error (%.2f deg) explains: the glints say the phase angle is %.2f deg, not %.2f; "
+          "check the phase angle and its sign (positive = light on the image's right)",
+          phi / kDeg, comb.mirror_offset_rad / kDeg, se / kDeg,
+          (acquisition.phase_angle_rad + 2.0 * comb.mirror_offset_rad) / kDeg,
+          acquisition.phase_angle_rad / kDeg));
+    }
+  }
   const double m = comb.max_slope;
   const double m_se = std::hypot(comb.max_slope_stderr, options.slope_floor * m);
   const double lambda = comb.wavelength_mm;
@@ -335,7 +362,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     }
   }
   if (best) {
-    ApplyCombFit(*best, options.comb, estimate);
+    ApplyCombFit(*best, options.comb, acquisition, peaks.mirror_rad, estimate);
     return;
   }
   if (!period->resolved) {

@@ -146,13 +146,18 @@ absl::StatusOr<ArcPixels> ExtractArcPixels(const Image& luminance, const Cylinde
       double sum = 0.0, offset = 0.0;
       bool ok = true;
       for (int xx = x; xx < x + bin_px; ++xx) {
-        const int y = std::clamp(static_cast<int>(std::lround(y0 + (xx - axis) * tan_t)), 0,
-                                 luminance.height - 1);
-        const std::size_t at = static_cast<std::size_t>(y) * luminance.width + xx;
-        sum += luminance.pixels[at];
-        ok = ok && (luminance.saturated.empty() || !luminance.saturated[at]);
-        // Signed distance of the pixel centre from the axis line.
-        offset += (xx - axis) * cos_t + (y - y0) * sin_t;
+        // The line crosses this column at y_line: the two pixels above and
+        // below it, linearly (a column's pixel stays whole along the arc).
+        const double y_line = y0 + (xx - axis) * tan_t;
+        const int ya = std::clamp(static_cast<int>(std::floor(y_line)), 0, luminance.height - 2);
+        const double f = std::clamp(y_line - ya, 0.0, 1.0);
+        const std::size_t at = static_cast<std::size_t>(ya) * luminance.width + xx;
+        const std::size_t below = at + luminance.width;
+        sum += (1.0 - f) * luminance.pixels[at] + f * luminance.pixels[below];
+        ok = ok && (luminance.saturated.empty() ||
+                    (!(luminance.saturated[at] && f < 1.0) && !(luminance.saturated[below] && f > 0.0)));
+        // Signed distance of the point on the line from the axis.
+        offset += (xx - axis) * cos_t + (y_line - y0) * sin_t;
       }
       values.push_back(static_cast<float>(sum / bin_px));
       offsets.push_back(offset / bin_px);

@@ -48,12 +48,12 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
 
 // The raw pixels of chosen rows along the arc, for fitting glints pixel by
 // pixel (glints/comb_fit.h): each signal runs along the line through the
-// row's axis point perpendicular to the axis, and takes in every image
-// column the pixel nearest that line, so that every value is one pixel's
-// exact average (no interpolation) and the signal stays on one thread when
-// the axis is tilted. Neighbouring columns are averaged into bins of
-// bin_px. Each bin carries the perpendicular distance of its centre from
-// the axis and its width, in px.
+// row's axis point perpendicular to the axis (so that it stays on one thread
+// when the axis is tilted) and takes, in every image column, the two pixels
+// above and below the line, interpolated linearly along the column only: along
+// the arc every value is exactly whole pixels' average. Neighbouring columns
+// are averaged into bins of bin_px. Each bin carries the perpendicular
+// distance of its centre from the axis and its width, in px.
 struct ArcPixels {
   int bin_px = 1;
   double radius_px = 0.0;        // limb half-width, perpendicular to the axis
