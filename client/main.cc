@@ -186,6 +186,60 @@ std::string JsonLine(const google::protobuf::Message& message) {
   return json;
 }
 
+// Prints the joint estimate (a last JSON line, or a table).
+void PrintJoint(const EstimateFlags& flags, const v1::JointEstimate& joint) {
+  if (flags.json) {
+    std::cout << "{\"joint\":" << JsonLine(joint) << "}\n";
+  } else {
+    std::cout << FormatJoint(joint);
+  }
+}
+
+// submit --joint: every photograph in one EstimateJoint call, so the daemon
+// combines them; a photograph it cannot estimate fails the call.
+int RunJointRemote(const EstimateFlags& flags) {
+  std::vector<v1::RequestHeader> headers;
+  std::vector<std::string> files;
+  absl::Status status;
+  for (std::size_t index = 0; status.ok() && index < flags.images.size(); ++index) {
+    absl::StatusOr<std::string> bytes = ReadFile(flags.images[index]);
+    absl::StatusOr<v1::RequestHeader> header =
+        bytes.ok() ? HeaderFor(flags, flags.images[index], index)
+                   : absl::StatusOr<v1::RequestHeader>(bytes.status());
+    if (!header.ok()) {
+      status = absl::Status(header.status().code(),
+                            absl::StrCat(flags.images[index], ": ", header.status().message()));
+      break;
+    }
+    headers.push_back(*std::move(header));
+    files.push_back(*std::move(bytes));
+  }
+  absl::StatusOr<v1::JointEstimateReply> reply =
+      status.ok() ? SubmitJoint(flags.server, headers, files, flags.timeout_s * flags.images.size())
+                  : absl::StatusOr<v1::JointEstimateReply>(status);
+  if (!reply.ok()) {
+    std::cerr << "weavefit: joint estimate: " << absl::StatusCodeToString(reply.status().code())
+              << ": " << reply.status().message() << "\n";
+    if (flags.json) std::cout << ErrorToJson(reply.status()) << "\n";
+    return static_cast<int>(reply.status().code());
+  }
+  std::vector<ReportRow> rows;
+  for (int i = 0; i < reply->photographs_size(); ++i) {
+    const v1::EstimateReply& one = reply->photographs(i);
+    if (flags.json) std::cout << JsonLine(one) << "\n";
+    ReportRow row;
+    row.image = flags.images[i];
+    row.reply = one;
+    if (auto sidecar = ReadSidecar(row.image)) {
+      row.truth_spacing_deg = StructNumber(*sidecar, "truth", "peakSpacingDeg");
+    }
+    rows.push_back(std::move(row));
+  }
+  if (!flags.json) std::cout << FormatTable(rows);
+  PrintJoint(flags, reply->joint());
+  return 0;
+}
+
 // estimate and submit differ only in where the work is done.
 int RunEstimates(const EstimateFlags& flags, bool remote) {
   if (flags.phase_angles_deg.size() > 1 && flags.phase_angles_deg.size() != flags.images.size()) {
@@ -196,6 +250,7 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
     if (flags.json) std::cout << ErrorToJson(s) << "\n";
     return static_cast<int>(s.code());
   }
+  if (remote && flags.joint) return RunJointRemote(flags);
   std::vector<ReportRow> rows;
   std::vector<PhotographEstimate> photographs;
   std::vector<std::string> names;
@@ -239,12 +294,7 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
       std::cerr << "weavefit: joint estimate: " << joint.status().message() << "\n";
       if (flags.json) std::cout << ErrorToJson(joint.status()) << "\n";
     } else {
-      const v1::JointEstimate proto = JointToProto(*joint, names);
-      if (flags.json) {
-        std::cout << "{\"joint\":" << JsonLine(proto) << "}\n";
-      } else {
-        std::cout << FormatJoint(proto);
-      }
+      PrintJoint(flags, JointToProto(*joint, names));
     }
   }
   return first_error.ok() ? 0 : static_cast<int>(first_error.code());

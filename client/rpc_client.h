@@ -3,6 +3,7 @@
 #define WEAVEFIT_CLIENT_RPC_CLIENT_H_
 
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "weavefit/v1/weavefit.pb.h"
@@ -18,6 +19,14 @@ absl::StatusOr<v1::EstimateReply> SubmitEstimate(const std::string& server,
                                                  v1::RequestHeader header,
                                                  const std::string& bytes,
                                                  double timeout_s);
+
+// Streams several photographs of one sample (each header then its bytes) to
+// the daemon's EstimateJoint and returns each photograph's estimate and the
+// joint one.
+absl::StatusOr<v1::JointEstimateReply> SubmitJoint(const std::string& server,
+                                                   std::vector<v1::RequestHeader> headers,
+                                                   const std::vector<std::string>& bytes,
+                                                   double timeout_s);
 
 }  // namespace weavefit
 
