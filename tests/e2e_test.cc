@@ -175,6 +175,19 @@ TEST_F(EndToEnd, JointEstimateOverFourPhaseAngles) {
   EXPECT_EQ(local_lines.back(), lines.back());
 }
 
+// The daemon's EstimateJoint: a photograph it cannot estimate fails the
+// whole call with a message that names it, and the daemon keeps serving.
+TEST_F(EndToEnd, JointCallNamesTheFailingPhotograph) {
+  const std::string bad = ::testing::TempDir() + "/not_an_image.png";
+  WriteFileOrDie(bad, "this is not a PNG file");
+  const std::string good = kFixtures + "/gauze_sinusoid_p10.png";
+  const CommandResult run = Submit({good, bad, "--joint", "--phase-angle", "10"});
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_NE(run.err.find("photograph 2 (\"not_an_image.png\")"), std::string::npos) << run.err;
+  const CommandResult again = Submit({good, good, "--joint", "--phase-angle", "10", "--json"});
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+}
+
 TEST_F(EndToEnd, PhaseAnglesMustMatchTheImages) {
   const std::vector<std::string> images = FixtureImages(kFixtures);
   const CommandResult run = Estimate({images[0], images[1], images[2], "--phase-angle", "10,60"});
