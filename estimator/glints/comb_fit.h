@@ -27,7 +27,7 @@ struct CombFitOptions {
   // Rows fitted (those with a weave phase, evenly spread), and pixel bins
   // per row (the pipeline bins neighbouring columns down to it).
   int max_rows = 32;
-  int max_samples_per_row = 256;
+  int max_samples_per_row = 128;
   // Sub-intervals per bin over which the Gaussian is integrated along the
   // locally linear miss: with 4 the max slope of 320×240 renders came out
   // 0.1 % high on six noise draws, with 8 within 0.03 %.
@@ -39,7 +39,7 @@ struct CombFitOptions {
   // from a period 25 % off when the lens blur and the source blur are free
   // to smear the glints. So a period the glint count confirmed needs
   // min_explained, one it found too weak to call needs min_explained_alone.
-  double min_explained = 0.5;
+  double min_explained = 0.8;
   double min_explained_alone = 0.9;
   // Relative errors always counted for what the model leaves out (a real
   // thread is no exact sinusoid; pixels are not exact boxes): the largest

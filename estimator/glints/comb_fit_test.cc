@@ -329,7 +329,9 @@ TEST(CombFitTest, WrongPeriodIsNotConfirmed) {
       ASSERT_TRUE(run.fit.ok()) << run.fit.status();
       const CombFitResult& f = *run.fit;
       EXPECT_FALSE(f.converged && f.explained >= options.min_explained_alone) << Describe(f);
-      if (!f.converged) EXPECT_FALSE(f.message.empty());
+      if (!f.converged) {
+        EXPECT_FALSE(f.message.empty());
+      }
     }
   }
 }

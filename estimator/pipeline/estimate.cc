@@ -326,9 +326,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     return;
   }
   // The comb fit, from the period found or, when the glint count found it
-  // too weak to call, from each of its best candidates (the fit is the
-  // stronger test: a wrong period explains little of the rows; the one that
-  // explains most is kept).
+  // too weak to call, from its best candidates in turn (the fit is the
+  // stronger test: a wrong period explains little of the rows).
   std::vector<double> starts;
   if (period->resolved) {
     starts.push_back(period->wavelength_mm);
@@ -350,8 +349,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     if (comb.ok() && comb->converged && comb->explained >= needed &&
         std::fabs(comb->wavelength_mm / start - 1.0) < 0.05 &&
         std::fabs(comb->max_slope / peaks.max_slope - 1.0) < 0.3) {
-      if (!best || comb->explained > best->explained) best = *comb;
-      continue;
+      // Candidates come best first: the first the fit confirms is kept.
+      best = *comb;
+      break;
     }
     if (comb_failure.empty()) {
       comb_failure = !comb.ok() ? std::string(comb.status().message())

@@ -127,7 +127,7 @@ absl::StatusOr<ArcPixels> ExtractArcPixels(const Image& luminance, const Cylinde
   ArcPixels out;
   out.bin_px = bin_px;
   out.radius_px = geometry.radius_px;
-  out.bin_width_px = bin_px * cos_t;
+  out.bin_width_px = bin_px / cos_t;  // a column is 1/cos t along the line
   // Horizontal offsets (px from the axis point) of the range's ends.
   const double horizontal = geometry.radius_px / cos_t;
   const double lo = OffsetFromAzimuth(from_rad, projection) * horizontal;
