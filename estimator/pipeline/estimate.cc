@@ -439,6 +439,24 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
       if (!fits->fits[i].converged) continue;
       if (fits->best < 0 || fits->fits[i].bic < fits->fits[fits->best].bic) fits->best = static_cast<int>(i);
     }
+    // The fits overturn peak picking's split model (judged from the glints
+    // and the level between the peaks) only on strong evidence: a BIC lower
+    // by more than 10 after dividing the difference by the number of bins
+    // the smoothing correlates (2√π·σ/bin: the fit runs on the smoothed
+    // profile, whose residuals are not independent, so the plain BIC
+    // overstates the evidence by that factor).
+    const double correlated = std::max(
+        1.0, 2.0 * std::sqrt(M_PI) * peaks.smoothing_rad /
+                 std::max(estimate->profile.bin_width_rad, 1e-9));
+    if (fits->best >= 0 && peaks.split_resolved && peaks.model != ProfileModel::kSmooth) {
+      for (std::size_t i = 0; i < fits->fits.size(); ++i) {
+        const ModelFit& f = fits->fits[i];
+        if (f.model == peaks.model && f.converged && f.model != fits->fits[fits->best].model &&
+            (f.bic - fits->fits[fits->best].bic) / correlated < 10.0) {
+          fits->best = static_cast<int>(i);
+        }
+      }
+    }
   }
   if (!fits.ok() || fits->best < 0) {
     estimate->warnings.push_back(absl::StrCat(
