@@ -24,6 +24,8 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "client/bench.h"
+#include "client/files.h"
 #include "client/report.h"
 #include "client/rpc_client.h"
 #include "estimator/io/encode.h"
@@ -59,62 +61,6 @@ std::string ProfileCsv(const Profile& p) {
                     p.stderr_mean[i], ",", p.count[i], "\n");
   }
   return out;
-}
-
-absl::StatusOr<std::string> ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return absl::NotFoundError(absl::StrCat("cannot open ", path));
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) return absl::DataLossError(absl::StrCat("cannot read ", path));
-  return buffer.str();
-}
-
-// Writes via a temporary file and a rename, so nothing is half-written.
-absl::Status WriteFile(const std::string& path, const std::string& bytes) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!out) return absl::UnavailableError(absl::StrCat("cannot write ", tmp));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    return absl::UnavailableError(absl::StrCat("cannot rename ", tmp, " to ", path));
-  }
-  return absl::OkStatus();
-}
-
-std::string SidecarPath(const std::string& image) {
-  const std::size_t dot = image.find_last_of('.');
-  const std::size_t slash = image.find_last_of('/');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) {
-    return image + ".json";
-  }
-  return image.substr(0, dot) + ".json";
-}
-
-// The sidecar IMAGE-stem.json, parsed, when it exists and is JSON.
-std::optional<google::protobuf::Struct> ReadSidecar(const std::string& image) {
-  absl::StatusOr<std::string> text = ReadFile(SidecarPath(image));
-  if (!text.ok()) return std::nullopt;
-  google::protobuf::Struct sidecar;
-  if (!google::protobuf::util::JsonStringToMessage(*text, &sidecar).ok()) {
-    return std::nullopt;
-  }
-  return sidecar;
-}
-
-std::optional<double> StructNumber(const google::protobuf::Struct& s,
-                                   const std::string& object,
-                                   const std::string& field) {
-  auto o = s.fields().find(object);
-  if (o == s.fields().end() || !o->second.has_struct_value()) return std::nullopt;
-  auto f = o->second.struct_value().fields().find(field);
-  if (f == o->second.struct_value().fields().end() ||
-      f->second.kind_case() != google::protobuf::Value::kNumberValue) {
-    return std::nullopt;
-  }
-  return f->second.number_value();
 }
 
 // The request header for one image: flags, or the sidecar's "acquisition"
@@ -159,8 +105,6 @@ absl::StatusOr<v1::RequestHeader> HeaderFor(const EstimateFlags& flags,
   header.set_sample_name(header.filename());
   return header;
 }
-
-absl::Status WriteFile(const std::string& path, const std::string& bytes);
 
 absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& header,
                                                     const std::string& bytes,
@@ -530,6 +474,19 @@ int main(int argc, char** argv) {
   weavefit::AddEstimateFlags(submit, &submit_flags, true);
   CLI::App* render = app.add_subcommand("render", "render a cylinder photograph with a truth sidecar");
   weavefit::AddRenderFlags(render, &render_flags);
+  weavefit::BenchFlags bench_flags;
+  CLI::App* bench = app.add_subcommand(
+      "bench", "every mode over photographs with truth sidecars: CSV of times and errors, and a "
+               "speed-against-accuracy chart (gnuplot)");
+  bench->add_option("inputs", bench_flags.inputs, "images or folders (default: fixtures)");
+  bench->add_option("--out", bench_flags.out_dir, "output folder")->capture_default_str();
+  bench->add_option("--modes", bench_flags.modes, "modes to run, comma-separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  bench->add_option("--repeats", bench_flags.repeats, "timed runs per image and mode (median kept)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  bench->add_flag("--no-chart", bench_flags.no_chart, "write the CSVs only");
   // A scene file sets the defaults; flags on the command line override it.
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "render") {
@@ -548,5 +505,6 @@ int main(int argc, char** argv) {
   if (*estimate) return weavefit::RunEstimates(estimate_flags, false);
   if (*submit) return weavefit::RunEstimates(submit_flags, true);
   if (*render) return weavefit::RunRender(render_flags);
+  if (*bench) return weavefit::RunBench(bench_flags);
   return 0;
 }

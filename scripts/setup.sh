@@ -11,6 +11,7 @@ packages=(
   libopencv-dev libceres-dev libopenexr-dev libflann-dev liblz4-dev
   libgrpc++-dev libgrpc-dev protobuf-compiler protobuf-compiler-grpc libprotobuf-dev
   libabsl-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libgoogle-glog-dev
+  gnuplot-nox
 )
 missing=()
 for p in "${packages[@]}"; do

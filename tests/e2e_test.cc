@@ -188,6 +188,27 @@ TEST_F(EndToEnd, JointCallNamesTheFailingPhotograph) {
   EXPECT_EQ(again.exit_code, 0) << again.err;
 }
 
+// weavefit bench: the per-image CSV (one row per image and mode), the
+// per-mode summary and, with gnuplot present (scripts/setup.sh installs
+// it), the chart. Timings are not checked: they belong to benchmarks.
+TEST_F(EndToEnd, BenchWritesCsvAndChart) {
+  const std::string out = ::testing::TempDir() + "/bench";
+  const CommandResult run = RunCommand({WEAVEFIT_PATH, "bench", kFixtures + "/gauze_sinusoid_p10.png",
+                                        kFixtures + "/saw_m030_m10.png", "--out", out,
+                                        "--repeats", "1", "--modes", "fast,balanced"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string csv = ReadFileOrDie(out + "/bench.csv");
+  const std::vector<std::string> lines = absl::StrSplit(csv, '\n', absl::SkipEmpty());
+  ASSERT_EQ(lines.size(), 1u + 2u * 2u) << csv;
+  EXPECT_EQ(lines[0].rfind("image,method,truth_model,model,model_right,total_ms", 0), 0u);
+  EXPECT_NE(csv.find("gauze_sinusoid_p10.png,balanced,SINUSOID,SINUSOID,1,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("saw_m030_m10.png,fast,SAWTOOTH,SAWTOOTH,1,"), std::string::npos) << csv;
+  const std::string summary = ReadFileOrDie(out + "/summary.csv");
+  EXPECT_NE(summary.find("balanced,"), std::string::npos) << summary;
+  EXPECT_GT(ReadFileOrDie(out + "/speed_accuracy.png").size(), 1000u);
+  EXPECT_NE(ReadFileOrDie(out + "/speed_accuracy.svg").find("<svg"), std::string::npos);
+}
+
 TEST_F(EndToEnd, PhaseAnglesMustMatchTheImages) {
   const std::vector<std::string> images = FixtureImages(kFixtures);
   const CommandResult run = Estimate({images[0], images[1], images[2], "--phase-angle", "10,60"});
