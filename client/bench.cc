@@ -10,6 +10,8 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <tuple>
+#include <utility>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -17,6 +19,7 @@
 #include "absl/strings/str_join.h"
 #include "client/files.h"
 #include "estimator/pipeline/estimate.h"
+#include "estimator/render/render.h"
 
 namespace weavefit {
 namespace {
@@ -266,6 +269,201 @@ int RunBench(const BenchFlags& flags) {
     return static_cast<int>(absl::StatusCode::kUnavailable);
   }
   std::cout << "wrote " << plot << ".png and " << plot << ".svg\n";
+  return 0;
+}
+
+namespace {
+
+struct SweepAxis {
+  std::string name;   // CSV and chart label
+  std::string unit;
+  std::vector<double> values;
+  void (*apply)(RenderScene&, double);
+  bool log_x = false;
+};
+
+std::vector<SweepAxis> SweepAxes() {
+  return {
+      {"max_slope", "max slope m", {0.01, 0.02, 0.04, 0.08, 0.16, 0.24, 0.4},
+       [](RenderScene& s, double m) { s.amplitude_mm = m * s.wavelength_mm / (2.0 * M_PI); }, true},
+      {"noise", "photons at full scale (fewer = noisier)", {200000, 20000, 5000, 2000, 800, 300},
+       [](RenderScene& s, double photons) {
+         s.photons_full_scale = photons;
+         s.read_noise = 0.002 * std::sqrt(20000.0 / photons);
+       }, true},
+      {"blur", "source blur sigma, deg", {0.3, 0.6, 1.2, 2.4, 4.0, 6.0},
+       [](RenderScene& s, double b) { s.source_blur_deg = b; }, true},
+      {"px_per_period", "pixels per thread period", {32, 16, 8, 5, 3, 2},
+       [](RenderScene& s, double px) {
+         const double m = s.MaxSlope();
+         const double mm_per_px = (s.diameter_mm / 2.0) / (0.4 * s.width_px);
+         s.wavelength_mm = px * mm_per_px;
+         s.amplitude_mm = m * s.wavelength_mm / (2.0 * M_PI);
+       }, true},
+      {"phase_angle", "phase angle, deg", {10, 40, 70, 100, 120, 140},
+       [](RenderScene& s, double a) { s.phase_angle_deg = a; }, false},
+      {"tilt", "axis tilt, deg", {0, 1, 2, 3, 4, 5},
+       [](RenderScene& s, double t) { s.axis_angle_deg = t; }, false},
+  };
+}
+
+// One sweep point's summary for one mode.
+struct SweepPoint {
+  std::string axis, mode;
+  double value = 0.0, median_error = 0.0, failure_rate = 0.0;
+};
+
+// Writes the gnuplot script for one 2×3 panel chart (the error, or the
+// failure rate, against each axis; one line per mode, the data inline) and
+// runs it.
+absl::Status SweepChart(const std::string& out_dir, const std::vector<SweepPoint>& points,
+                        const std::vector<SweepAxis>& axes, const std::vector<std::string>& modes,
+                        const std::string& stem, bool error_chart, const std::string& ylabel) {
+  std::string data;
+  for (const SweepAxis& axis : axes) {
+    for (const std::string& mode : modes) {
+      absl::StrAppend(&data, "$", axis.name, "_", mode, " << EOD\n");
+      for (const SweepPoint& p : points) {
+        if (p.axis != axis.name || p.mode != mode) continue;
+        const double y = error_chart ? p.median_error : p.failure_rate;
+        if (std::isfinite(y)) absl::StrAppend(&data, Num(p.value), " ", Num(y), "\n");
+      }
+      absl::StrAppend(&data, "EOD\n");
+    }
+  }
+  std::string body = absl::StrCat(
+      "set multiplot layout 2,3 title 'weavefit stability: ", ylabel,
+      " (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied "
+      "at a time)'\nset grid\nset key top left\n");
+  for (const SweepAxis& axis : axes) {
+    absl::StrAppend(&body, axis.log_x ? "set logscale x\n" : "unset logscale x\n",
+                    error_chart ? "set logscale y\nset yrange [0.005:30]\n"
+                                : "unset logscale y\nset yrange [-0.05:1.05]\n",
+                    "set xlabel '", axis.unit, "'\nplot ");
+    for (std::size_t m = 0; m < modes.size(); ++m) {
+      absl::StrAppend(&body, m ? ", " : "", "$", axis.name, "_", modes[m],
+                      " using 1:2 with linespoints lw 2 pt ", 5 + 2 * static_cast<int>(m),
+                      " title '", MethodName(modes[m]), "'");
+    }
+    absl::StrAppend(&body, "\n");
+  }
+  absl::StrAppend(&body, "unset multiplot\n");
+  const std::string script = absl::StrCat(
+      data, "set terminal pngcairo size 1500,850 font ',10'\nset output '", out_dir, "/", stem,
+      ".png'\n", body, "set terminal svg size 1500,850\nset output '", out_dir, "/", stem,
+      ".svg'\n", body);
+  const std::string path = absl::StrCat(out_dir, "/", stem, ".gp");
+  if (absl::Status s = WriteFile(path, script); !s.ok()) return s;
+  if (std::system(absl::StrCat("gnuplot '", path, "'").c_str()) != 0) {
+    return absl::UnavailableError("gnuplot failed or is missing (scripts/setup.sh installs gnuplot-nox)");
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+int RunSweep(const BenchFlags& flags) {
+  std::error_code ec;
+  std::filesystem::create_directories(flags.out_dir, ec);
+  if (ec) {
+    std::cerr << "weavefit bench: cannot create " << flags.out_dir << ": " << ec.message() << "\n";
+    return static_cast<int>(absl::StatusCode::kUnavailable);
+  }
+  const std::vector<SweepAxis> axes = SweepAxes();
+  std::string csv =
+      "axis,value,seed,mode,truth_spacing_deg,split_resolvable,model_right,spacing_resolved,"
+      "spacing_error_deg,spacing_stderr_deg,wrong,unresolved,ms\n";
+  std::string summary = "axis,value,mode,median_abs_spacing_error_deg,wrong_rate,unresolved_rate,failure_rate,draws\n";
+  std::vector<SweepPoint> points;
+  for (const SweepAxis& axis : axes) {
+    for (double value : axis.values) {
+      std::map<std::string, std::vector<double>> errors;
+      std::map<std::string, int> wrong, unresolved, draws;
+      for (int seed = 1; seed <= flags.seeds; ++seed) {
+        RenderScene scene;
+        scene.width_px = 320;
+        scene.height_px = 240;
+        scene.model = ProfileModel::kSinusoid;
+        scene.wavelength_mm = 1.44;
+        scene.amplitude_mm = 0.24 * scene.wavelength_mm / (2.0 * M_PI);
+        scene.phase_angle_deg = 30.0;
+        scene.seed = static_cast<std::uint32_t>(1000 * seed + 17);
+        axis.apply(scene, value);
+        absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+        if (!rendered.ok()) {
+          std::cerr << "weavefit bench --sweep: " << axis.name << " " << value << ": "
+                    << rendered.status().message() << "\n";
+          continue;
+        }
+        Acquisition acquisition;
+        acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
+        acquisition.cylinder_diameter_mm = scene.diameter_mm;
+        acquisition.camera_distance_mm = scene.camera_distance_mm;
+        const RenderTruth& truth = rendered->truth;
+        for (const std::string& mode : flags.modes) {
+          EstimateOptions options;
+          options.mode =
+              mode == "fast" ? Mode::kFast : mode == "accurate" ? Mode::kAccurate : Mode::kBalanced;
+          const auto start = std::chrono::steady_clock::now();
+          absl::StatusOr<Estimate> e = EstimateFromImage(rendered->image, acquisition, options);
+          const double ms = std::chrono::duration<double, std::milli>(
+                                std::chrono::steady_clock::now() - start).count();
+          ++draws[mode];
+          const bool ok = e.ok();
+          const bool model_right = ok && e->model == scene.model;
+          const bool resolved = ok && e->peak_spacing_rad.resolved;
+          const double err = resolved ? e->peak_spacing_rad.value / kDeg - truth.peak_spacing_deg
+                                      : std::nan("");
+          const double se = resolved ? e->peak_spacing_rad.stderr_value / kDeg : std::nan("");
+          // Wrong: an error, a wrong model where the split shows, or a
+          // spacing more than 3 stated errors off. Unresolved: no spacing
+          // where the truth's split is resolvable.
+          const bool is_wrong = !ok || (truth.split_resolvable && resolved && !model_right) ||
+                                (resolved && std::fabs(err) > 3.0 * se);
+          const bool is_unresolved = ok && truth.split_resolvable && !resolved;
+          wrong[mode] += is_wrong;
+          unresolved[mode] += is_unresolved;
+          if (resolved) errors[mode].push_back(std::fabs(err));
+          absl::StrAppend(&csv, axis.name, ",", Num(value), ",", seed, ",", mode, ",",
+                          Num(truth.peak_spacing_deg), ",", truth.split_resolvable ? 1 : 0, ",",
+                          model_right ? 1 : 0, ",", resolved ? 1 : 0, ",", Num(err), ",", Num(se),
+                          ",", is_wrong ? 1 : 0, ",", is_unresolved ? 1 : 0, ",", Num(ms), "\n");
+        }
+      }
+      for (const std::string& mode : flags.modes) {
+        const double n = std::max(draws[mode], 1);
+        points.push_back({axis.name, mode, value, Median(errors[mode]),
+                          (wrong[mode] + unresolved[mode]) / n});
+        absl::StrAppend(&summary, axis.name, ",", Num(value), ",", mode, ",",
+                        Num(Median(errors[mode])), ",", Num(wrong[mode] / n), ",",
+                        Num(unresolved[mode] / n), ",", Num((wrong[mode] + unresolved[mode]) / n),
+                        ",", draws[mode], "\n");
+      }
+      std::cerr << "." << std::flush;
+    }
+  }
+  std::cerr << "\n";
+  const std::string csv_path = flags.out_dir + "/sweep.csv";
+  const std::string summary_path = flags.out_dir + "/sweep_summary.csv";
+  for (const auto& [path, text] : {std::pair{csv_path, csv}, std::pair{summary_path, summary}}) {
+    if (absl::Status s = WriteFile(path, text); !s.ok()) {
+      std::cerr << "weavefit bench --sweep: " << s.message() << "\n";
+      return static_cast<int>(s.code());
+    }
+  }
+  std::cout << "wrote " << csv_path << " and " << summary_path << "\n";
+  if (flags.no_chart) return 0;
+  for (const auto& [stem, error_chart, label] :
+       {std::tuple{std::string("sweep_error"), true, std::string("median |peak spacing error|, deg")},
+        std::tuple{std::string("sweep_failures"), false,
+                   std::string("share of wrong (model, or > 3 stated errors off) or unresolved answers")}}) {
+    if (absl::Status s = SweepChart(flags.out_dir, points, axes, flags.modes, stem, error_chart, label);
+        !s.ok()) {
+      std::cerr << "weavefit bench --sweep: " << s.message() << "; the CSVs are written\n";
+      return static_cast<int>(s.code());
+    }
+    std::cout << "wrote " << flags.out_dir << "/" << stem << ".png and .svg\n";
+  }
   return 0;
 }
 

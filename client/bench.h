@@ -17,10 +17,24 @@ struct BenchFlags {
   std::vector<std::string> modes = {"fast", "balanced", "accurate"};
   int repeats = 3;                  // timed runs per image and mode (median kept)
   bool no_chart = false;            // CSV only
+  // The stability study instead: scenes rendered along the axes where
+  // methods fail, `seeds` noise draws per point.
+  bool sweep = false;
+  int seeds = 3;
 };
 
 // Returns the process exit status: 0, or a gRPC-style code on failure.
 int RunBench(const BenchFlags& flags);
+
+// `weavefit bench --sweep`: renders a sinusoid scene (coarse weave, m 0.24,
+// 320×240) along six axes — max slope toward zero, noise up, source blur up,
+// pixels per thread period down, phase angle toward grazing, axis tilt up —
+// and runs every mode on each; writes sweep.csv (one row per render and
+// mode), sweep_summary.csv (per axis point and mode: median |spacing error|,
+// the share of wrong answers — a wrong model or a spacing more than 3 stated
+// errors off — and of unresolved ones where the truth is resolvable) and two
+// charts, sweep_error and sweep_failures (PNG and SVG).
+int RunSweep(const BenchFlags& flags);
 
 }  // namespace weavefit
 

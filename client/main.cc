@@ -487,6 +487,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   bench->add_flag("--no-chart", bench_flags.no_chart, "write the CSVs only");
+  bench->add_flag("--sweep", bench_flags.sweep,
+                  "the stability study: render scenes along the axes where methods fail and "
+                  "chart error and failure rate per mode (ignores inputs)");
+  bench->add_option("--seeds", bench_flags.seeds, "noise draws per sweep point")
+      ->check(CLI::Range(1, 50))
+      ->capture_default_str();
   // A scene file sets the defaults; flags on the command line override it.
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::string(argv[i]) == "render") {
@@ -505,6 +511,8 @@ int main(int argc, char** argv) {
   if (*estimate) return weavefit::RunEstimates(estimate_flags, false);
   if (*submit) return weavefit::RunEstimates(submit_flags, true);
   if (*render) return weavefit::RunRender(render_flags);
-  if (*bench) return weavefit::RunBench(bench_flags);
+  if (*bench) {
+    return bench_flags.sweep ? weavefit::RunSweep(bench_flags) : weavefit::RunBench(bench_flags);
+  }
   return 0;
 }

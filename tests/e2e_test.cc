@@ -209,6 +209,25 @@ TEST_F(EndToEnd, BenchWritesCsvAndChart) {
   EXPECT_NE(ReadFileOrDie(out + "/speed_accuracy.svg").find("<svg"), std::string::npos);
 }
 
+// weavefit bench --sweep: one noise draw, fast mode only, to keep it short.
+TEST_F(EndToEnd, SweepWritesCsvAndCharts) {
+  const std::string out = ::testing::TempDir() + "/sweep";
+  const CommandResult run = RunCommand(
+      {WEAVEFIT_PATH, "bench", "--sweep", "--out", out, "--seeds", "1", "--modes", "fast"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string summary = ReadFileOrDie(out + "/sweep_summary.csv");
+  const std::vector<std::string> lines = absl::StrSplit(summary, '\n', absl::SkipEmpty());
+  // Six axes of six or seven points, one mode.
+  EXPECT_EQ(lines.size(), 1u + 37u) << summary;
+  for (const char* axis : {"max_slope,", "noise,", "blur,", "px_per_period,", "phase_angle,", "tilt,"}) {
+    EXPECT_NE(summary.find(std::string("\n") + axis), std::string::npos) << axis;
+  }
+  // The coarse weave at 16 px per period and 30 deg is read right by peak picking.
+  EXPECT_NE(summary.find("\nphase_angle,40,fast,"), std::string::npos);
+  EXPECT_GT(ReadFileOrDie(out + "/sweep_error.png").size(), 1000u);
+  EXPECT_GT(ReadFileOrDie(out + "/sweep_failures.png").size(), 1000u);
+}
+
 TEST_F(EndToEnd, PhaseAnglesMustMatchTheImages) {
   const std::vector<std::string> images = FixtureImages(kFixtures);
   const CommandResult run = Estimate({images[0], images[1], images[2], "--phase-angle", "10,60"});
