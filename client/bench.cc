@@ -1,9 +1,16 @@
 #include "client/bench.h"
 
 #include <google/protobuf/struct.pb.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
+#include <fstream>
+#include <thread>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -18,8 +25,13 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "client/files.h"
+#include "client/rpc_client.h"
+#include "estimator/io/decode.h"
+#include "estimator/io/encode.h"
 #include "estimator/pipeline/estimate.h"
 #include "estimator/render/render.h"
+
+extern char** environ;
 
 namespace weavefit {
 namespace {
@@ -464,6 +476,208 @@ int RunSweep(const BenchFlags& flags) {
     }
     std::cout << "wrote " << flags.out_dir << "/" << stem << ".png and .svg\n";
   }
+  return 0;
+}
+
+namespace {
+
+// A weavefitd child on a free loopback port; stopped on destruction.
+class ChildDaemon {
+ public:
+  ChildDaemon(const std::string& path, const std::string& dir, int workers) {
+    const std::string port_file = dir + "/perf_daemon.port";
+    std::remove(port_file.c_str());
+    std::vector<std::string> argv = {path, "--listen", "127.0.0.1:0", "--port-file", port_file,
+                                     "--workers", std::to_string(workers)};
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    const std::string log = dir + "/perf_daemon.log";
+    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&actions);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (pid_ > 0 && port_ == 0 && std::chrono::steady_clock::now() < deadline) {
+      std::ifstream in(port_file);
+      if (!(in >> port_)) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  ~ChildDaemon() {
+    if (pid_ > 0) {
+      kill(pid_, SIGTERM);
+      int status = 0;
+      waitpid(pid_, &status, 0);
+    }
+  }
+  bool ok() const { return pid_ > 0 && port_ > 0; }
+  std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  // Peak resident memory so far (VmHWM), bytes; 0 when unknown.
+  double PeakBytes() const {
+    std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("VmHWM:", 0) == 0) return std::atof(line.c_str() + 6) * 1024.0;
+    }
+    return 0.0;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = 0;
+};
+
+template <typename F>
+double MedianMs(int repeats, F&& run) {
+  std::vector<double> ms;
+  for (int i = 0; i < std::max(repeats, 1); ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    run();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                     .count());
+  }
+  return Median(ms);
+}
+
+std::string DefaultDaemonPath() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return "weavefitd";
+  return (self.parent_path().parent_path() / "server" / "weavefitd").string();
+}
+
+}  // namespace
+
+int RunPerf(const BenchFlags& flags) {
+  std::error_code ec;
+  std::filesystem::create_directories(flags.out_dir, ec);
+  const std::string png_path = flags.out_dir + "/perf_4096x3072.png";
+  const std::string exr_path = flags.out_dir + "/perf_4096x3072.exr";
+  RenderScene scene;
+  scene.width_px = 4096;
+  scene.height_px = 3072;
+  scene.radius_px = 1600;
+  scene.wavelength_mm = 2.0;
+  scene.amplitude_mm = 0.0764;
+  scene.phase_angle_deg = 10.0;
+  if (!std::filesystem::exists(png_path) || !std::filesystem::exists(exr_path)) {
+    std::cerr << "weavefit bench --perf: rendering the 4096x3072 test image once (about 15 s)\n";
+    absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+    if (!rendered.ok()) {
+      std::cerr << "weavefit bench --perf: " << rendered.status().message() << "\n";
+      return static_cast<int>(rendered.status().code());
+    }
+    for (const auto& [path, format] :
+         {std::pair{png_path, EncodeFormat::kPng16}, std::pair{exr_path, EncodeFormat::kExr}}) {
+      absl::StatusOr<std::string> bytes = EncodeImage(rendered->image, format);
+      absl::Status s = bytes.ok() ? WriteFile(path, *bytes) : bytes.status();
+      if (!s.ok()) {
+        std::cerr << "weavefit bench --perf: " << s.message() << "\n";
+        return static_cast<int>(s.code());
+      }
+    }
+  }
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
+  acquisition.cylinder_diameter_mm = scene.diameter_mm;
+  const int n = std::max(flags.repeats, 1);
+  std::string csv = "figure,format,value,target,unit,meets\n";
+  std::cout << absl::StrFormat("%-58s %10s %10s  %s\n", "figure (medians of " + std::to_string(n) + " runs)",
+                               "measured", "target", "");
+  auto report = [&](const std::string& figure, const std::string& format, double value,
+                    double target, const std::string& unit, bool lower_is_better) {
+    const bool has_target = std::isfinite(target);
+    const bool meets = lower_is_better ? value <= target : value >= target;
+    std::cout << absl::StrFormat("%-58s %10.3g %10s  %-2s %s\n", figure + " [" + format + "]", value,
+                                 has_target ? absl::StrFormat("%.3g", target) : "-", unit,
+                                 has_target ? (meets ? "ok" : "MISSED") : "");
+    absl::StrAppend(&csv, "\"", figure, "\",", format, ",", Num(value), ",", Num(target), ",", unit,
+                    ",", has_target ? (meets ? "1" : "0") : "", "\n");
+  };
+  double decoded_bytes = 0.0;
+  double png_in_process_ms = 0.0;
+  std::string png_bytes;
+  for (const std::string& path : {png_path, exr_path}) {
+    const std::string format = path.substr(path.size() - 3);
+    absl::StatusOr<std::string> bytes = ReadFile(path);
+    if (!bytes.ok()) {
+      std::cerr << "weavefit bench --perf: " << bytes.status().message() << "\n";
+      return static_cast<int>(bytes.status().code());
+    }
+    if (format == "png") png_bytes = *bytes;
+    DecodeOptions decode;
+    decode.max_pixels = 1LL << 26;
+    absl::StatusOr<Image> image = DecodeImage(*bytes, decode);
+    if (!image.ok()) {
+      std::cerr << "weavefit bench --perf: " << image.status().message() << "\n";
+      return static_cast<int>(image.status().code());
+    }
+    decoded_bytes = static_cast<double>(image->pixels.size()) * sizeof(float);
+    const double decode_ms = MedianMs(n, [&] { (void)DecodeImage(*bytes, decode); });
+    report("decode alone", format, decode_ms, std::nan(""), "ms", true);
+    for (const std::string& mode : {"fast", "balanced"}) {
+      EstimateOptions options;
+      options.mode = mode == std::string("fast") ? Mode::kFast : Mode::kBalanced;
+      std::vector<double> after;
+      const double whole = MedianMs(n, [&] {
+        absl::StatusOr<Estimate> e = EstimateFromBytes(*bytes, acquisition, options);
+        if (!e.ok()) return;
+        double sum = 0.0;
+        for (const StageTime& t : e->timings) sum += t.stage == "decode" ? 0.0 : t.milliseconds;
+        after.push_back(sum);
+      });
+      if (mode == std::string("balanced")) {
+        report("in-process estimate / decode alone (balanced)", format, whole / decode_ms, 1.25,
+               "x", true);
+        if (format == "png") png_in_process_ms = whole;
+      }
+      report(absl::StrCat("all stages after decoding (", mode, ")"), format, Median(after),
+             mode == std::string("fast") ? 10.0 : 50.0, "ms", true);
+    }
+  }
+  const std::string daemon = flags.daemon_path.empty() ? DefaultDaemonPath() : flags.daemon_path;
+  {
+    ChildDaemon child(daemon, flags.out_dir, 2);
+    if (!child.ok()) {
+      std::cerr << "weavefit bench --perf: cannot start " << daemon
+                << " (give --daemon PATH); the daemon figures are left out\n";
+    } else {
+      v1::RequestHeader header;
+      header.mutable_acquisition()->set_phase_angle_deg(scene.phase_angle_deg);
+      header.mutable_acquisition()->set_cylinder_diameter_mm(scene.diameter_mm);
+      header.mutable_options()->set_mode(v1::BALANCED);
+      header.set_filename("perf_4096x3072.png");
+      (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);  // warm-up
+      const double remote = MedianMs(n, [&] {
+        (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+      });
+      report("through the daemon on loopback / in-process (balanced)", "png",
+             remote / png_in_process_ms, 1.15, "x", true);
+      report("daemon peak memory / decoded image", "png", child.PeakBytes() / decoded_bytes, 3.0,
+             "x", true);
+      // Throughput: 2·n requests from one client, then from two at once.
+      const int requests = 2 * n;
+      const double one = MedianMs(1, [&] {
+        for (int i = 0; i < requests; ++i) (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+      });
+      const double two = MedianMs(1, [&] {
+        std::thread a([&] {
+          for (int i = 0; i < n; ++i) (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+        });
+        for (int i = 0; i < n; ++i) (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+        a.join();
+      });
+      report("two concurrent clients / one (throughput, 2 workers)", "png", one / two, 1.7, "x",
+             false);
+    }
+  }
+  const std::string path = flags.out_dir + "/perf.csv";
+  if (absl::Status s = WriteFile(path, csv); !s.ok()) {
+    std::cerr << "weavefit bench --perf: " << s.message() << "\n";
+    return static_cast<int>(s.code());
+  }
+  std::cout << "wrote " << path << "\n";
   return 0;
 }
 

@@ -21,6 +21,10 @@ struct BenchFlags {
   // methods fail, `seeds` noise draws per point.
   bool sweep = false;
   int seeds = 3;
+  // The speed report instead: a 4096×3072 16-bit PNG and the same image as
+  // EXR (rendered once into out_dir), timed against the targets.
+  bool perf = false;
+  std::string daemon_path;  // weavefitd; default: beside this client's build
 };
 
 // Returns the process exit status: 0, or a gRPC-style code on failure.
@@ -35,6 +39,13 @@ int RunBench(const BenchFlags& flags);
 // errors off — and of unresolved ones where the truth is resolvable) and two
 // charts, sweep_error and sweep_failures (PNG and SVG).
 int RunSweep(const BenchFlags& flags);
+
+// `weavefit bench --perf`: decoding alone, the in-process estimate per mode
+// (and the stages after decoding), through a weavefitd on loopback, the
+// daemon's peak memory against the decoded image, and two concurrent clients
+// against one; each figure printed beside its target (issue 6) and written
+// to perf.csv. Timings are medians of `repeats` runs on this machine.
+int RunPerf(const BenchFlags& flags);
 
 }  // namespace weavefit
 

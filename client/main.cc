@@ -490,6 +490,11 @@ int main(int argc, char** argv) {
   bench->add_flag("--sweep", bench_flags.sweep,
                   "the stability study: render scenes along the axes where methods fail and "
                   "chart error and failure rate per mode (ignores inputs)");
+  bench->add_flag("--perf", bench_flags.perf,
+                  "the speed report: a 4096x3072 16-bit PNG and EXR (rendered once into --out), "
+                  "decode, in-process, daemon, memory and concurrency against their targets");
+  bench->add_option("--daemon", bench_flags.daemon_path,
+                    "weavefitd for --perf (default: beside this client's build)");
   bench->add_option("--seeds", bench_flags.seeds, "noise draws per sweep point")
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
@@ -512,6 +517,7 @@ int main(int argc, char** argv) {
   if (*submit) return weavefit::RunEstimates(submit_flags, true);
   if (*render) return weavefit::RunRender(render_flags);
   if (*bench) {
+    if (bench_flags.perf) return weavefit::RunPerf(bench_flags);
     return bench_flags.sweep ? weavefit::RunSweep(bench_flags) : weavefit::RunBench(bench_flags);
   }
   return 0;
