@@ -8,9 +8,15 @@
 #include <iostream>
 #include <thread>
 
+#include <malloc.h>
+
 #include "server/server.h"
 
 int main(int argc, char** argv) {
+  // glibc gives each thread that allocates its own arena and keeps what is
+  // freed there; with gRPC's thread pool every request could leave a 12 Mpx
+  // image's worth behind in another arena. Two arenas bound that.
+  mallopt(M_ARENA_MAX, 2);
   weavefit::ServerOptions options;
   double max_upload_mb = 64.0;
   double max_megapixels = 64.0;
