@@ -482,6 +482,7 @@ int main(int argc, char** argv) {
   bench->add_option("--out", bench_flags.out_dir, "output folder")->capture_default_str();
   bench->add_option("--modes", bench_flags.modes, "modes to run, comma-separated")
       ->delimiter(',')
+      ->check(CLI::IsMember({"fast", "balanced", "accurate"}))
       ->capture_default_str();
   bench->add_option("--repeats", bench_flags.repeats, "timed runs per image and mode (median kept)")
       ->check(CLI::Range(1, 100))
