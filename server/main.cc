@@ -34,6 +34,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--workers", options.service.workers, "estimates that run at once")
       ->capture_default_str()->check(CLI::Range(1, 256));
+  app.add_option("--max-joint-photographs", options.service.max_joint_photographs,
+                 "most photographs in one EstimateJoint call")
+      ->capture_default_str()->check(CLI::Range(1, 256));
   app.add_option("--shutdown-grace-s", grace_s, "time given to requests in flight on SIGINT/SIGTERM, s")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   app.add_option("--port-file", port_file, "write the bound port to this file once serving");
