@@ -73,13 +73,8 @@ std::vector<std::string> ListImages(const std::vector<std::string>& inputs) {
   return images;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
+// Linear interpolation between order statistics; NaN for an empty v (an
+// empty CSV cell).
 double Quantile(std::vector<double> v, double p) {
   if (v.empty()) return std::nan("");
   std::sort(v.begin(), v.end());
@@ -88,6 +83,8 @@ double Quantile(std::vector<double> v, double p) {
   const std::size_t hi = std::min(lo + 1, v.size() - 1);
   return v[lo] + (at - lo) * (v[hi] - v[lo]);
 }
+
+double Median(std::vector<double> v) { return Quantile(std::move(v), 0.5); }
 
 std::string Num(double x) { return std::isfinite(x) ? absl::StrFormat("%.6g", x) : ""; }
 
@@ -616,7 +613,7 @@ int RunPerf(const BenchFlags& flags) {
     decoded_bytes = static_cast<double>(image->pixels.size()) * sizeof(float);
     const double decode_ms = MedianMs(n, [&] { (void)DecodeImage(*bytes, decode); });
     report("decode alone", format, decode_ms, std::nan(""), "ms", true);
-    for (const std::string& mode : {"fast", "balanced"}) {
+    for (const std::string mode : {"fast", "balanced"}) {
       EstimateOptions options;
       options.mode = mode == std::string("fast") ? Mode::kFast : Mode::kBalanced;
       std::vector<double> after;

@@ -250,11 +250,8 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
     const double se =
         misfit * std::hypot(comb.mirror_offset_stderr_rad, options.mirror_floor_rad);
     estimate->specular_azimuth_rad = {phi, se, true};
-    // The comb's mirror replaces the peaks' in the phase-angle check.
-    estimate->warnings.erase(
-        std::remove_if(estimate->warnings.begin(), estimate->warnings.end(),
-                       [](const std::string& w) { return w.rfind("the mirror azimuth", 0) == 0; }),
-        estimate->warnings.end());
+    // The phase-angle check from the glints (peak picking's is made only
+    // when there is no comb fit).
     if (std::fabs(comb.mirror_offset_rad) > 3.0 * se + options.mirror_tolerance_rad) {
       estimate->warnings.push_back(absl::StrFormat(
           "the mirror azimuth %.2f deg is %.2f deg from half the stated phase angle, more than "
@@ -562,20 +559,6 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   estimate.smoothing_rad = peaks->smoothing_rad;
   estimate.model = peaks->model;
   estimate.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true};
-  {
-    // The mirror azimuth should be half the phase angle (a smooth cylinder's
-    // brightest column sits a little off it; allow a degree besides 3 σ).
-    const double expected = 0.5 * (acquisition.phase_angle_rad +
-                                    ViewAngleRad(peaks->mirror_rad, projection));
-    const double miss = std::fabs(peaks->mirror_rad - expected);
-    if (miss > 3.0 * peaks->mirror_stderr_rad + 1.0 * kDeg) {
-      estimate.warnings.push_back(absl::StrFormat(
-          "the mirror azimuth %.2f deg is %.2f deg from half the stated phase "
-          "angle (%.2f deg), more than its error explains: check the phase "
-          "angle and its sign (positive = light on the image's right)",
-          peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg));
-    }
-  }
   if (peaks->split_resolved) {
     estimate.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true};
     estimate.max_slope = {peaks->max_slope, peaks->max_slope_stderr, true};
@@ -619,6 +602,21 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     EstimateWavelength(luminance, *cylinder, acquisition, *peaks,
                        estimate.profile.background_noise, options, &estimate);
     clock.Lap("glints");
+  }
+  if (estimate.method != "comb-fit") {
+    // The mirror azimuth should be half the phase angle (a smooth cylinder's
+    // brightest column sits a little off it; allow a degree besides 3 σ).
+    // The comb fit makes its own check from the glints (ApplyCombFit).
+    const double expected = 0.5 * (acquisition.phase_angle_rad +
+                                    ViewAngleRad(peaks->mirror_rad, projection));
+    const double miss = std::fabs(peaks->mirror_rad - expected);
+    if (miss > 3.0 * peaks->mirror_stderr_rad + 1.0 * kDeg) {
+      estimate.warnings.push_back(absl::StrFormat(
+          "the mirror azimuth %.2f deg is %.2f deg from half the stated phase "
+          "angle (%.2f deg), more than its error explains: check the phase "
+          "angle and its sign (positive = light on the image's right)",
+          peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg));
+    }
   }
   estimate.timings = clock.laps();
   return estimate;
