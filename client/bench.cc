@@ -645,9 +645,11 @@ int RunPerf(const BenchFlags& flags) {
       header.mutable_acquisition()->set_cylinder_diameter_mm(scene.diameter_mm);
       header.mutable_options()->set_mode(v1::BALANCED);
       header.set_filename("perf_4096x3072.png");
-      (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);  // warm-up
+      Connection connection;
+      connection.server = child.address();
+      (void)SubmitEstimate(connection, header, png_bytes);  // warm-up
       const double remote = MedianMs(n, [&] {
-        (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+        (void)SubmitEstimate(connection, header, png_bytes);
       });
       report("through the daemon on loopback / in-process (balanced)", "png",
              remote / png_in_process_ms, 1.15, "x", true);
@@ -656,13 +658,13 @@ int RunPerf(const BenchFlags& flags) {
       // Throughput: 2·n requests from one client, then from two at once.
       const int requests = 2 * n;
       const double one = MedianMs(1, [&] {
-        for (int i = 0; i < requests; ++i) (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+        for (int i = 0; i < requests; ++i) (void)SubmitEstimate(connection, header, png_bytes);
       });
       const double two = MedianMs(1, [&] {
         std::thread a([&] {
-          for (int i = 0; i < n; ++i) (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+          for (int i = 0; i < n; ++i) (void)SubmitEstimate(connection, header, png_bytes);
         });
-        for (int i = 0; i < n; ++i) (void)SubmitEstimate(child.address(), header, png_bytes, 120.0);
+        for (int i = 0; i < n; ++i) (void)SubmitEstimate(connection, header, png_bytes);
         a.join();
       });
       report("two concurrent clients / one (throughput, 2 workers)", "png", one / two, 1.7, "x",

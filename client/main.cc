@@ -48,8 +48,8 @@ struct EstimateFlags {
   double saturation_level = 0.0;
   std::string mode = "balanced";
   bool json = false;
-  std::string server = "127.0.0.1:50051";
-  double timeout_s = 120.0;
+  Connection connection;    // submit only: --server, --timeout-s, TLS and token
+  std::string token_file;   // submit only
   std::string profile_csv;  // estimate only: write the azimuthal profile here
 };
 
@@ -159,7 +159,7 @@ int RunJointRemote(const EstimateFlags& flags) {
     files.push_back(*std::move(bytes));
   }
   absl::StatusOr<v1::JointEstimateReply> reply =
-      status.ok() ? SubmitJoint(flags.server, headers, files, flags.timeout_s * flags.images.size())
+      status.ok() ? SubmitJoint(flags.connection, headers, files)
                   : absl::StatusOr<v1::JointEstimateReply>(status);
   if (!reply.ok()) {
     std::cerr << "weavefit: joint estimate: " << absl::StatusCodeToString(reply.status().code())
@@ -208,7 +208,7 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
       if (!bytes.ok()) return bytes.status();
       absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags, image, index);
       if (!header.ok()) return header.status();
-      if (remote) return SubmitEstimate(flags.server, *header, *bytes, flags.timeout_s);
+      if (remote) return SubmitEstimate(flags.connection, *header, *bytes);
       return EstimateInProcess(*header, *bytes, flags.profile_csv);
     }();
     if (reply.ok()) {
@@ -274,10 +274,21 @@ void AddEstimateFlags(CLI::App* app, EstimateFlags* flags, bool remote) {
                     "write the azimuthal profile (azimuth_deg,mean,stderr,count) of the last image");
   }
   if (remote) {
-    app->add_option("--server", flags->server, "weavefitd address host:port")
+    Connection& c = flags->connection;
+    app->add_option("--server", c.server, "weavefitd address host:port")
         ->capture_default_str();
-    app->add_option("--timeout-s", flags->timeout_s, "deadline per image, s")
+    app->add_option("--timeout-s", c.timeout_s, "deadline per image, s")
         ->capture_default_str()->check(CLI::PositiveNumber);
+    app->add_option("--tls-ca", c.tls_ca,
+                    "CA certificate (PEM) that signed the daemon's; turns TLS on")
+        ->check(CLI::ExistingFile);
+    app->add_option("--tls-cert", c.tls_cert, "client certificate (PEM), for mutual TLS")
+        ->check(CLI::ExistingFile);
+    app->add_option("--tls-key", c.tls_key, "client private key (PEM), for mutual TLS")
+        ->check(CLI::ExistingFile);
+    app->add_option("--token-file", flags->token_file,
+                    "file whose first line is the bearer token (default: $WEAVEFIT_TOKEN)")
+        ->check(CLI::ExistingFile);
   }
 }
 
@@ -515,7 +526,13 @@ int main(int argc, char** argv) {
   }
   CLI11_PARSE(app, argc, argv);
   if (*estimate) return weavefit::RunEstimates(estimate_flags, false);
-  if (*submit) return weavefit::RunEstimates(submit_flags, true);
+  if (*submit) {
+    if (absl::Status s = submit_flags.connection.LoadToken(submit_flags.token_file); !s.ok()) {
+      std::cerr << "weavefit: " << s.message() << "\n";
+      return static_cast<int>(s.code());
+    }
+    return weavefit::RunEstimates(submit_flags, true);
+  }
   if (*render) return weavefit::RunRender(render_flags);
   if (*bench) {
     if (bench_flags.perf) return weavefit::RunPerf(bench_flags);

@@ -4,22 +4,97 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "proto/weavefit/v1/keepalive.h"
 #include "proto/weavefit/v1/status_util.h"
 #include "weavefit/v1/weavefit.grpc.pb.h"
 
 namespace weavefit {
+namespace {
 
-absl::StatusOr<v1::EstimateReply> SubmitEstimate(const std::string& server,
+absl::StatusOr<std::string> ReadText(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::InvalidArgumentError(absl::StrCat("cannot read ", what, " ", path));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void PrepareContext(const Connection& connection, double timeout_s,
+                    grpc::ClientContext* context) {
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::milliseconds(static_cast<long long>(timeout_s * 1000)));
+  context->set_wait_for_ready(false);
+  if (!connection.token.empty()) {
+    context->AddMetadata("authorization", "Bearer " + connection.token);
+  }
+}
+
+}  // namespace
+
+absl::Status Connection::LoadToken(const std::string& token_file) {
+  std::string text;
+  if (!token_file.empty()) {
+    absl::StatusOr<std::string> read = ReadText(token_file, "token file");
+    if (!read.ok()) return read.status();
+    text = *read;
+  } else if (const char* env = std::getenv("WEAVEFIT_TOKEN")) {
+    text = env;
+  } else {
+    return absl::OkStatus();
+  }
+  std::string first = text.substr(0, text.find('\n'));
+  absl::StripAsciiWhitespace(&first);
+  if (first.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        token_file.empty() ? std::string("WEAVEFIT_TOKEN") : token_file, " holds no token"));
+  }
+  token = first;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::shared_ptr<grpc::Channel>> MakeChannel(const Connection& connection) {
+  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (!connection.tls_ca.empty() || !connection.tls_cert.empty()) {
+    grpc::SslCredentialsOptions ssl;
+    if (!connection.tls_ca.empty()) {
+      absl::StatusOr<std::string> ca = ReadText(connection.tls_ca, "TLS CA");
+      if (!ca.ok()) return ca.status();
+      ssl.pem_root_certs = *ca;
+    }
+    if (connection.tls_cert.empty() != connection.tls_key.empty()) {
+      return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+    }
+    if (!connection.tls_cert.empty()) {
+      absl::StatusOr<std::string> cert = ReadText(connection.tls_cert, "TLS certificate");
+      if (!cert.ok()) return cert.status();
+      absl::StatusOr<std::string> key = ReadText(connection.tls_key, "TLS key");
+      if (!key.ok()) return key.status();
+      ssl.pem_cert_chain = *cert;
+      ssl.pem_private_key = *key;
+    }
+    credentials = grpc::SslCredentials(ssl);
+  }
+  grpc::ChannelArguments args;
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, kClientKeepaliveTimeMs);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kClientKeepaliveTimeoutMs);
+  args.SetInt(GRPC_ARG_HTTP2_MAX_PINGS_WITHOUT_DATA, 0);
+  return grpc::CreateCustomChannel(connection.server, credentials, args);
+}
+
+absl::StatusOr<v1::EstimateReply> SubmitEstimate(const Connection& connection,
                                                  v1::RequestHeader header,
-                                                 const std::string& bytes,
-                                                 double timeout_s) {
-  auto channel = grpc::CreateChannel(server, grpc::InsecureChannelCredentials());
-  auto stub = v1::WeaveFit::NewStub(channel);
+                                                 const std::string& bytes) {
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = MakeChannel(connection);
+  if (!channel.ok()) return channel.status();
+  auto stub = v1::WeaveFit::NewStub(*channel);
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() +
-                       std::chrono::milliseconds(static_cast<long long>(timeout_s * 1000)));
-  context.set_wait_for_ready(false);
+  PrepareContext(connection, connection.timeout_s, &context);
   v1::EstimateReply reply;
   std::unique_ptr<grpc::ClientWriter<v1::EstimateRequest>> writer =
       stub->Estimate(&context, &reply);
@@ -39,18 +114,18 @@ absl::StatusOr<v1::EstimateReply> SubmitEstimate(const std::string& server,
   return reply;
 }
 
-absl::StatusOr<v1::JointEstimateReply> SubmitJoint(const std::string& server,
+absl::StatusOr<v1::JointEstimateReply> SubmitJoint(const Connection& connection,
                                                    std::vector<v1::RequestHeader> headers,
-                                                   const std::vector<std::string>& bytes,
-                                                   double timeout_s) {
+                                                   const std::vector<std::string>& bytes) {
   if (headers.size() != bytes.size()) {
     return absl::InvalidArgumentError("one header per photograph is needed");
   }
-  auto channel = grpc::CreateChannel(server, grpc::InsecureChannelCredentials());
-  auto stub = v1::WeaveFit::NewStub(channel);
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = MakeChannel(connection);
+  if (!channel.ok()) return channel.status();
+  auto stub = v1::WeaveFit::NewStub(*channel);
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() +
-                       std::chrono::milliseconds(static_cast<long long>(timeout_s * 1000)));
+  PrepareContext(connection, connection.timeout_s * static_cast<double>(headers.size()),
+                 &context);
   v1::JointEstimateReply reply;
   std::unique_ptr<grpc::ClientWriter<v1::EstimateRequest>> writer =
       stub->EstimateJoint(&context, &reply);

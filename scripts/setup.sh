@@ -11,7 +11,9 @@ packages=(
   libopencv-dev libceres-dev libopenexr-dev libflann-dev liblz4-dev
   libgrpc++-dev libgrpc-dev protobuf-compiler protobuf-compiler-grpc libprotobuf-dev
   libabsl-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libgoogle-glog-dev
+  libcivetweb-dev libssl-dev
   gnuplot-nox
+  python3-grpcio python3-grpc-tools python3-protobuf
 )
 missing=()
 for p in "${packages[@]}"; do

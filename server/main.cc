@@ -1,14 +1,14 @@
 // weavefitd: the weavefit estimation daemon.
 #include <glog/logging.h>
+#include <malloc.h>
 #include <signal.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <thread>
-
-#include <malloc.h>
 
 #include "server/server.h"
 
@@ -18,41 +18,88 @@ int main(int argc, char** argv) {
   // image's worth behind in another arena. Two arenas bound that.
   mallopt(M_ARENA_MAX, 2);
   weavefit::ServerOptions options;
+  weavefit::ServiceOptions& service = options.service;
   double max_upload_mb = 64.0;
   double max_megapixels = 64.0;
   double grace_s = 30.0;
   std::string port_file;
-  options.service.workers =
-      std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  service.workers = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  service.max_queue = 2 * service.workers;
 
   CLI::App app{"weavefitd: thread geometry of glossy woven materials, served over gRPC"};
-  app.add_option("--listen", options.listen, "host:port to listen on (port 0 = any free port)")
+  app.add_option("--listen", options.listen,
+                 "host:port to listen on (port 0 = any free port); an address other than "
+                 "loopback needs TLS or --insecure-remote")
       ->capture_default_str();
-  app.add_option("--max-upload-mb", max_upload_mb, "largest accepted upload, MiB")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--max-megapixels", max_megapixels, "largest accepted decoded image, megapixels")
-      ->capture_default_str()->check(CLI::PositiveNumber);
-  app.add_option("--workers", options.service.workers, "estimates that run at once")
-      ->capture_default_str()->check(CLI::Range(1, 256));
-  app.add_option("--max-joint-photographs", options.service.max_joint_photographs,
+  auto* limits = "Limits (checked before the work they protect)";
+  app.add_option("--max-upload-mb", max_upload_mb, "largest accepted upload per photograph, MiB")
+      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+  app.add_option("--max-megapixels", max_megapixels,
+                 "largest decoded image, megapixels (read from the file's header before decoding)")
+      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+  app.add_option("--max-chunks", service.max_chunks, "most chunk messages in one call")
+      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+  app.add_option("--max-concurrent,--workers", service.workers,
+                 "estimates that run at once (default: one per core)")
+      ->capture_default_str()->check(CLI::Range(1, 256))->group(limits);
+  app.add_option("--max-queue", service.max_queue,
+                 "calls admitted beyond those running, waiting with their upload in memory; "
+                 "past that, RESOURCE_EXHAUSTED at once (default: two per core)")
+      ->capture_default_str()->check(CLI::Range(0, 4096))->group(limits);
+  app.add_option("--deadline-s", service.deadline_s,
+                 "longest a call may take, upload included, s (a client's shorter deadline wins)")
+      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+  app.add_option("--max-joint-photographs", service.max_joint_photographs,
                  "most photographs in one EstimateJoint call")
-      ->capture_default_str()->check(CLI::Range(1, 256));
-  app.add_option("--shutdown-grace-s", grace_s, "time given to requests in flight on SIGINT/SIGTERM, s")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
-  app.add_option("--port-file", port_file, "write the bound port to this file once serving");
+      ->capture_default_str()->check(CLI::Range(1, 256))->group(limits);
+  auto* access = "Access control";
+  app.add_option("--tls-cert", options.tls_cert, "server certificate chain (PEM); enables TLS")
+      ->check(CLI::ExistingFile)->group(access);
+  app.add_option("--tls-key", options.tls_key, "server private key (PEM)")
+      ->check(CLI::ExistingFile)->group(access);
+  app.add_option("--tls-client-ca", options.tls_client_ca,
+                 "CA (PEM) that signs client certificates; when given, clients must present one "
+                 "(mutual TLS)")
+      ->check(CLI::ExistingFile)->group(access);
+  app.add_option("--token-file", options.token_file,
+                 "bearer tokens, one per line ('#' comments); every WeaveFit call then needs "
+                 "'authorization: Bearer <token>'. Re-read on SIGHUP")
+      ->check(CLI::ExistingFile)->group(access);
+  app.add_flag("--insecure-remote", options.insecure_remote,
+               "allow a non-loopback --listen without TLS (trusted networks only)")
+      ->group(access);
+  app.add_flag("--reflection", options.reflection,
+               "serve gRPC reflection on a non-loopback address too (always on for loopback)")
+      ->group(access);
+  auto* operation = "Operation";
+  app.add_option("--metrics-listen", options.metrics_listen,
+                 "host:port for Prometheus metrics at /metrics (off when empty)")
+      ->group(operation);
+  app.add_option("--shutdown-grace-s", grace_s,
+                 "on SIGTERM/SIGINT, time given to calls in flight before they are cancelled, s")
+      ->capture_default_str()->check(CLI::NonNegativeNumber)->group(operation);
+  app.add_option("--port-file", port_file,
+                 "once serving, write the bound gRPC port (and the metrics port on a second "
+                 "line) to this file")
+      ->group(operation);
   CLI11_PARSE(app, argc, argv);
 
   FLAGS_logtostderr = true;
   google::InitGoogleLogging(argv[0]);
-  options.service.max_upload_bytes = static_cast<std::int64_t>(max_upload_mb * (1 << 20));
-  options.service.estimate.max_pixels = static_cast<std::int64_t>(max_megapixels * 1e6);
+  service.max_upload_bytes = static_cast<std::int64_t>(max_upload_mb * (1 << 20));
+  service.estimate.max_pixels = static_cast<std::int64_t>(max_megapixels * 1e6);
+  if (!options.token_file.empty() && !options.tls() &&
+      !weavefit::IsLoopbackAddress(options.listen)) {
+    LOG(WARNING) << "bearer tokens will cross the network in clear text (no TLS)";
+  }
 
-  // SIGINT and SIGTERM are taken by sigwait below, in this thread only:
-  // block them before gRPC starts its threads.
+  // SIGINT, SIGTERM and SIGHUP are taken by sigwait below, in this thread
+  // only: block them before gRPC starts its threads.
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   auto server = weavefit::StartServer(options);
@@ -62,12 +109,28 @@ int main(int argc, char** argv) {
   }
   if (!port_file.empty()) {
     const std::string tmp = port_file + ".tmp";
-    std::ofstream(tmp) << (*server)->port() << "\n";
+    {
+      std::ofstream out(tmp);
+      out << (*server)->port() << "\n";
+      if ((*server)->metrics_port() > 0) out << (*server)->metrics_port() << "\n";
+    }
     std::rename(tmp.c_str(), port_file.c_str());  // appears complete or not at all
   }
-  int received = 0;
-  sigwait(&signals, &received);
-  LOG(INFO) << "signal " << received << ": draining (grace " << grace_s << " s)";
+  for (;;) {
+    int received = 0;
+    sigwait(&signals, &received);
+    if (received == SIGHUP) {
+      const absl::Status reloaded = (*server)->ReloadTokens();
+      if (reloaded.ok()) {
+        LOG(INFO) << "SIGHUP: token file re-read";
+      } else {
+        LOG(ERROR) << "SIGHUP: " << reloaded.message() << "; the previous tokens stay in force";
+      }
+      continue;
+    }
+    LOG(INFO) << "signal " << received << ": draining (grace " << grace_s << " s)";
+    break;
+  }
   (*server)->Shutdown(std::chrono::milliseconds(static_cast<long long>(grace_s * 1000)));
   LOG(INFO) << "weavefitd stopped";
   return 0;

@@ -3,62 +3,166 @@
 #include <glog/logging.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server.h>
 #include <grpcpp/server_builder.h>
 
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "estimator/init/profile_bank.h"
+#include "proto/weavefit/v1/keepalive.h"
 
 namespace weavefit {
+namespace {
+
+absl::StatusOr<std::string> ReadPem(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::InvalidArgumentError(absl::StrCat("cannot read ", what, " ", path));
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!absl::StrContains(text.str(), "-----BEGIN")) {
+    return absl::InvalidArgumentError(absl::StrCat(what, " ", path, " is not PEM"));
+  }
+  return text.str();
+}
+
+absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(
+    const ServerOptions& options) {
+  if (!options.tls()) return grpc::InsecureServerCredentials();
+  grpc::SslServerCredentialsOptions ssl;
+  absl::StatusOr<std::string> cert = ReadPem(options.tls_cert, "TLS certificate");
+  if (!cert.ok()) return cert.status();
+  absl::StatusOr<std::string> key = ReadPem(options.tls_key, "TLS key");
+  if (!key.ok()) return key.status();
+  ssl.pem_key_cert_pairs.push_back({*key, *cert});
+  if (!options.tls_client_ca.empty()) {
+    absl::StatusOr<std::string> ca = ReadPem(options.tls_client_ca, "client CA");
+    if (!ca.ok()) return ca.status();
+    ssl.pem_root_certs = *ca;
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  return grpc::SslServerCredentials(ssl);
+}
+
+}  // namespace
+
+bool IsLoopbackAddress(const std::string& host_port) {
+  const std::size_t colon = host_port.rfind(':');
+  std::string host = host_port.substr(0, colon == std::string::npos ? host_port.size() : colon);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
+    host = host.substr(1, host.size() - 2);
+  }
+  return host == "localhost" || host == "::1" || absl::StartsWith(host, "127.");
+}
 
 absl::Status ServerOptions::Validate() const {
   if (listen.empty() || listen.find(':') == std::string::npos) {
     return absl::InvalidArgumentError(
         absl::StrCat("listen must be host:port, got '", listen, "'"));
   }
+  if (tls_cert.empty() != tls_key.empty()) {
+    return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+  }
+  if (!tls_client_ca.empty() && !tls()) {
+    return absl::InvalidArgumentError("--tls-client-ca needs --tls-cert and --tls-key");
+  }
+  if (!IsLoopbackAddress(listen) && !tls() && !insecure_remote) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "refusing to listen on ", listen, " without TLS: give --tls-cert and --tls-key, "
+        "or --insecure-remote on a network you trust"));
+  }
+  if (!metrics_listen.empty() && metrics_listen.find(':') == std::string::npos) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("metrics listen must be host:port, got '", metrics_listen, "'"));
+  }
   return service.Validate();
 }
 
-RunningServer::RunningServer(std::unique_ptr<WeaveFitService> service,
-                             std::unique_ptr<grpc::Server> server, int port)
-    : service_(std::move(service)), server_(std::move(server)), port_(port) {}
-
 RunningServer::~RunningServer() { Shutdown(std::chrono::milliseconds(0)); }
+
+absl::Status RunningServer::ReloadTokens() {
+  if (!auth_ || !auth_->enabled()) return absl::OkStatus();
+  return auth_->Reload();
+}
 
 void RunningServer::Shutdown(std::chrono::milliseconds grace) {
   if (shut_down_) return;
   shut_down_ = true;
+  draining_ = true;
   if (auto* health = server_->GetHealthCheckService()) {
-    health->Shutdown();  // every service now answers NOT_SERVING
+    health->SetServingStatus(kReadinessService, false);
   }
   server_->Shutdown(std::chrono::system_clock::now() + grace);
   server_->Wait();
+  if (warm_up_.joinable()) warm_up_.join();
 }
 
-absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(
-    const ServerOptions& options) {
+absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& options) {
   if (absl::Status s = options.Validate(); !s.ok()) return s;
+  absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = Credentials(options);
+  if (!credentials.ok()) return credentials.status();
+
+  std::unique_ptr<RunningServer> running(new RunningServer());
+  if (!options.token_file.empty()) {
+    absl::StatusOr<std::unique_ptr<Authenticator>> auth =
+        Authenticator::FromFile(options.token_file);
+    if (!auth.ok()) return absl::InvalidArgumentError(auth.status().message());
+    running->auth_ = *std::move(auth);
+  }
+  running->metrics_ = std::make_unique<Metrics>();
+  if (!options.metrics_listen.empty()) {
+    absl::StatusOr<std::unique_ptr<MetricsEndpoint>> endpoint =
+        MetricsEndpoint::Start(options.metrics_listen, running->metrics_.get());
+    if (!endpoint.ok()) return endpoint.status();
+    running->metrics_endpoint_ = *std::move(endpoint);
+  }
+  running->service_ = std::make_unique<WeaveFitService>(
+      options.service, running->auth_.get(), running->metrics_.get());
+
   grpc::EnableDefaultHealthCheckService(true);
+  const bool reflection = options.reflection || IsLoopbackAddress(options.listen);
   // Debian's gRPC 1.51 serves grpc.reflection.v1alpha; the plugin must be
-  // initialised explicitly before the builder is made.
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  auto service = std::make_unique<WeaveFitService>(options.service);
+  // initialised explicitly before the builder is made (and only then).
+  if (reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  int port = 0;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &port);
-  builder.RegisterService(service.get());
+  builder.AddListeningPort(options.listen, *credentials, &running->port_);
+  builder.RegisterService(running->service_.get());
   // A chunk is at most 1 MiB; leave room for the envelope.
   builder.SetMaxReceiveMessageSize(
       static_cast<int>(options.service.max_chunk_bytes + (64 << 10)));
-  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
-  if (!server || port == 0) {
-    return absl::UnavailableError(
-        absl::StrCat("could not listen on ", options.listen));
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                             kServerMinPingIntervalMs);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, kServerKeepaliveTimeMs);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kServerKeepaliveTimeoutMs);
+  running->server_ = builder.BuildAndStart();
+  if (!running->server_ || running->port_ == 0) {
+    return absl::UnavailableError(absl::StrCat("could not listen on ", options.listen));
   }
-  server->GetHealthCheckService()->SetServingStatus(true);
-  LOG(INFO) << "weavefitd listening on " << options.listen << " (port " << port
-            << "), " << options.service.workers << " workers, upload limit "
-            << options.service.max_upload_bytes << " bytes";
-  return std::make_unique<RunningServer>(std::move(service), std::move(server), port);
+  grpc::HealthCheckServiceInterface* health = running->server_->GetHealthCheckService();
+  health->SetServingStatus("", true);                  // liveness
+  health->SetServingStatus(kReadinessService, false);  // readiness, below
+  RunningServer* self = running.get();
+  running->warm_up_ = std::thread([self, health] {
+    ProfileBank::Default();  // built once, shared by every request
+    if (!self->draining_) health->SetServingStatus(kReadinessService, true);
+    LOG(INFO) << "weavefitd ready (FLANN bank built)";
+  });
+  LOG(INFO) << "weavefitd listening on " << options.listen << " (port " << running->port_
+            << (options.tls() ? ", TLS" : ", plaintext")
+            << (options.tls_client_ca.empty() ? "" : ", client certificates required")
+            << (running->auth_ ? ", bearer tokens" : "") << (reflection ? ", reflection" : "")
+            << "), " << options.service.workers << " workers, queue "
+            << options.service.max_queue << ", upload limit " << options.service.max_upload_bytes
+            << " bytes, deadline " << options.service.deadline_s << " s";
+  if (running->metrics_endpoint_) {
+    LOG(INFO) << "metrics on " << options.metrics_listen << " (port "
+              << running->metrics_endpoint_->port() << ") /metrics";
+  }
+  return running;
 }
 
 }  // namespace weavefit

@@ -1,12 +1,17 @@
-// Starting and stopping weavefitd's gRPC server.
+// Starting and stopping weavefitd's gRPC server: transport security, access
+// control, health (liveness and readiness), reflection and metrics.
 #ifndef WEAVEFIT_SERVER_SERVER_H_
 #define WEAVEFIT_SERVER_SERVER_H_
 
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "absl/status/statusor.h"
+#include "server/auth.h"
+#include "server/metrics.h"
 #include "server/service.h"
 
 namespace grpc {
@@ -15,36 +20,67 @@ class Server;
 
 namespace weavefit {
 
+// The name under which readiness is reported by grpc.health.v1.Health; the
+// empty name ("") is liveness.
+inline constexpr char kReadinessService[] = "weavefit.v1.WeaveFit";
+
 struct ServerOptions {
   // host:port; port 0 picks a free port (see RunningServer::port).
   std::string listen = "127.0.0.1:50051";
+  // PEM files. With a certificate and key the daemon speaks TLS only; with a
+  // client CA as well, every client must present a certificate it signed.
+  std::string tls_cert;
+  std::string tls_key;
+  std::string tls_client_ca;
+  // Bearer tokens, one per line; empty = no token check.
+  std::string token_file;
+  // A non-loopback address without TLS is refused unless this is set.
+  bool insecure_remote = false;
+  // Server reflection exposes the whole schema: on for a loopback address,
+  // elsewhere only when asked.
+  bool reflection = false;
+  // host:port of the Prometheus endpoint; empty = off.
+  std::string metrics_listen;
   ServiceOptions service;
 
+  bool tls() const { return !tls_cert.empty(); }
   absl::Status Validate() const;
 };
 
+// True for 127.0.0.0/8, ::1 and localhost (with any port).
+bool IsLoopbackAddress(const std::string& host_port);
+
 class RunningServer {
  public:
-  RunningServer(std::unique_ptr<WeaveFitService> service,
-                std::unique_ptr<grpc::Server> server, int port);
   ~RunningServer();
 
   int port() const { return port_; }
-  // Health goes NOT_SERVING, new calls are refused, calls in flight get up
-  // to `grace` to finish before they are cancelled.
+  int metrics_port() const { return metrics_endpoint_ ? metrics_endpoint_->port() : 0; }
+  // Re-reads the token file (SIGHUP); the tokens in force stay on failure.
+  absl::Status ReloadTokens();
+  // Readiness goes NOT_SERVING, new calls are refused with UNAVAILABLE,
+  // calls in flight get up to `grace` to finish before they are cancelled.
   void Shutdown(std::chrono::milliseconds grace);
 
  private:
+  friend absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions&);
+  RunningServer() = default;
+
+  std::unique_ptr<Authenticator> auth_;
+  std::unique_ptr<Metrics> metrics_;
+  std::unique_ptr<MetricsEndpoint> metrics_endpoint_;
   std::unique_ptr<WeaveFitService> service_;
   std::unique_ptr<grpc::Server> server_;
-  int port_;
+  std::thread warm_up_;  // builds the FLANN bank, then declares readiness
+  std::atomic<bool> draining_{false};
+  int port_ = 0;
   bool shut_down_ = false;
 };
 
-// Binds, registers the service, health checking and reflection, and starts
-// serving. UNAVAILABLE when the address cannot be bound.
-absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(
-    const ServerOptions& options);
+// Checks the options, reads the certificates and tokens, binds and starts
+// serving; readiness follows once the FLANN bank is built. INVALID_ARGUMENT
+// for bad options or files, UNAVAILABLE when an address cannot be bound.
+absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& options);
 
 }  // namespace weavefit
 

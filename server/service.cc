@@ -2,7 +2,7 @@
 
 #include <glog/logging.h>
 
-#include <chrono>
+
 
 #include "absl/strings/str_cat.h"
 #include "estimator/pipeline/joint.h"
@@ -11,6 +11,12 @@
 
 namespace weavefit {
 
+struct WeaveFitService::Call {
+  Clock::time_point start = Clock::now();
+  Clock::time_point deadline = Clock::time_point::max();
+  Admission::Ticket ticket;
+};
+
 absl::Status ServiceOptions::Validate() const {
   if (max_upload_bytes <= 0) {
     return absl::InvalidArgumentError("max_upload_bytes must be > 0");
@@ -18,102 +24,49 @@ absl::Status ServiceOptions::Validate() const {
   if (max_chunk_bytes <= 0) {
     return absl::InvalidArgumentError("max_chunk_bytes must be > 0");
   }
+  if (max_chunks < 1) return absl::InvalidArgumentError("max_chunks must be >= 1");
   if (workers < 1) return absl::InvalidArgumentError("workers must be >= 1");
+  if (max_queue < 0) return absl::InvalidArgumentError("max_queue must be >= 0");
+  if (!(deadline_s > 0.0)) return absl::InvalidArgumentError("deadline_s must be > 0");
   if (max_joint_photographs < 1) {
     return absl::InvalidArgumentError("max_joint_photographs must be >= 1");
   }
   return estimate.Validate();
 }
 
-void WorkerSlots::Acquire() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  available_.wait(lock, [this] { return free_ > 0; });
-  --free_;
+WeaveFitService::WeaveFitService(ServiceOptions options, const Authenticator* auth,
+                                 Metrics* metrics)
+    : options_(std::move(options)),
+      auth_(auth),
+      metrics_(metrics),
+      admission_(options_.workers, options_.max_queue) {
+  if (metrics_ != nullptr) {
+    metrics_->SetQueueDepthSource([this] { return admission_.queued(); });
+  }
 }
 
-void WorkerSlots::Release() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++free_;
+absl::Status WeaveFitService::Begin(grpc::ServerContext* context, Call* call) {
+  if (auth_ != nullptr && auth_->enabled()) {
+    const auto& metadata = context->client_metadata();
+    const auto found = metadata.find("authorization");
+    const bool present = found != metadata.end();
+    const absl::string_view value =
+        present ? absl::string_view(found->second.data(), found->second.size())
+                : absl::string_view();
+    if (absl::Status s = auth_->Check(value, present); !s.ok()) return s;
   }
-  available_.notify_one();
-}
-
-WeaveFitService::WeaveFitService(ServiceOptions options)
-    : options_(std::move(options)), slots_(options_.workers) {}
-
-absl::Status WeaveFitService::ReadUpload(
-    grpc::ServerContext* context,
-    grpc::ServerReader<v1::EstimateRequest>* reader,
-    v1::RequestHeader* header, std::string* bytes) {
-  v1::EstimateRequest message;
-  if (!reader->Read(&message)) {
-    return absl::InvalidArgumentError("empty request stream: a header was expected");
+  // The call's deadline: the daemon's cap, or the client's when sooner.
+  const auto cap = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(options_.deadline_s));
+  call->deadline = call->start + cap;
+  const auto client_deadline = context->deadline();
+  const auto system_now = std::chrono::system_clock::now();
+  if (client_deadline < system_now + cap) {
+    call->deadline = call->start + std::chrono::duration_cast<Clock::duration>(
+                                       client_deadline - system_now);
   }
-  if (!message.has_header()) {
-    return absl::InvalidArgumentError("the first message must carry the header");
-  }
-  *header = message.header();
-  if (header->total_bytes() > static_cast<std::uint64_t>(options_.max_upload_bytes)) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "upload of ", header->total_bytes(), " bytes exceeds the limit of ",
-        options_.max_upload_bytes, " bytes"));
-  }
-  if (header->total_bytes() > 0) bytes->reserve(header->total_bytes());
-  while (reader->Read(&message)) {
-    if (context->IsCancelled()) return absl::CancelledError("client cancelled");
-    if (message.has_header()) {
-      return absl::InvalidArgumentError("a second header arrived after the first");
-    }
-    const std::string& chunk = message.chunk();
-    if (static_cast<std::int64_t>(chunk.size()) > options_.max_chunk_bytes) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "chunk of ", chunk.size(), " bytes exceeds ", options_.max_chunk_bytes));
-    }
-    if (static_cast<std::int64_t>(bytes->size() + chunk.size()) > options_.max_upload_bytes) {
-      return absl::ResourceExhaustedError(absl::StrCat(
-          "upload exceeds the limit of ", options_.max_upload_bytes, " bytes"));
-    }
-    bytes->append(chunk);
-  }
-  if (header->total_bytes() > 0 && bytes->size() != header->total_bytes()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "header announced ", header->total_bytes(), " bytes but ", bytes->size(),
-        " arrived"));
-  }
+  if (absl::Status s = admission_.Enter(&call->ticket); !s.ok()) return s;
   return absl::OkStatus();
-}
-
-grpc::Status WeaveFitService::Estimate(
-    grpc::ServerContext* context,
-    grpc::ServerReader<v1::EstimateRequest>* reader, v1::EstimateReply* reply) {
-  const auto start = std::chrono::steady_clock::now();
-  v1::RequestHeader header;
-  std::string bytes;
-  absl::Status status = ReadUpload(context, reader, &header, &bytes);
-  absl::StatusOr<Acquisition> acquisition = status.ok()
-      ? AcquisitionFromProto(header.acquisition())
-      : absl::StatusOr<Acquisition>(status);
-  if (status.ok()) status = acquisition.status();
-  if (status.ok()) {
-    const EstimateOptions options =
-        OptionsFromProto(header.options(), options_.estimate);
-    slots_.Acquire();
-    absl::StatusOr<weavefit::Estimate> estimate =
-        EstimateFromBytes(bytes, *acquisition, options);
-    slots_.Release();
-    status = estimate.status();
-    if (estimate.ok()) *reply = ReplyFromEstimate(*estimate, header.sample_name());
-  }
-  const double ms = std::chrono::duration<double, std::milli>(
-                        std::chrono::steady_clock::now() - start).count();
-  LOG(INFO) << "Estimate peer=" << context->peer() << " file=\""
-            << header.filename() << "\" bytes=" << bytes.size() << " outcome="
-            << (status.ok() ? std::string("OK")
-                            : absl::StatusCodeToString(status.code()) + ": " +
-                                  std::string(status.message()))
-            << " ms=" << ms;
-  return ToGrpcStatus(status);
 }
 
 absl::Status WeaveFitService::CheckUpload(const Upload& upload) const {
@@ -126,19 +79,28 @@ absl::Status WeaveFitService::CheckUpload(const Upload& upload) const {
   return absl::OkStatus();
 }
 
-absl::Status WeaveFitService::ReadJointUpload(grpc::ServerContext* context,
-                                              grpc::ServerReader<v1::EstimateRequest>* reader,
-                                              std::vector<Upload>* uploads) {
+absl::Status WeaveFitService::ReadUploads(grpc::ServerContext* context,
+                                          grpc::ServerReader<v1::EstimateRequest>* reader,
+                                          int max_photographs, Call* call,
+                                          std::vector<Upload>* uploads) {
+  // A read blocks until the client sends, closes or goes away; a client that
+  // stalls is cut off at the call's deadline.
+  Watchdog::Guard guard(&watchdog_, call->deadline, [context] { context->TryCancel(); });
   v1::EstimateRequest message;
+  std::int64_t chunks = 0;
   while (reader->Read(&message)) {
-    if (context->IsCancelled()) return absl::CancelledError("client cancelled");
     if (message.has_header()) {
       if (!uploads->empty()) {
         if (absl::Status s = CheckUpload(uploads->back()); !s.ok()) return s;
       }
-      if (static_cast<int>(uploads->size()) >= options_.max_joint_photographs) {
-        return absl::ResourceExhaustedError(absl::StrCat(
-            "more than ", options_.max_joint_photographs, " photographs in one joint call"));
+      if (static_cast<int>(uploads->size()) >= max_photographs) {
+        if (max_photographs == 1) {
+          return absl::InvalidArgumentError(
+              "a second header arrived after the first (Estimate takes one photograph; "
+              "use EstimateJoint for several)");
+        }
+        return absl::ResourceExhaustedError(
+            absl::StrCat("more than ", max_photographs, " photographs in one joint call"));
       }
       if (message.header().total_bytes() > static_cast<std::uint64_t>(options_.max_upload_bytes)) {
         return absl::ResourceExhaustedError(absl::StrCat(
@@ -146,10 +108,17 @@ absl::Status WeaveFitService::ReadJointUpload(grpc::ServerContext* context,
             options_.max_upload_bytes, " bytes"));
       }
       uploads->push_back({message.header(), std::string()});
+      if (message.header().total_bytes() > 0) {
+        uploads->back().bytes.reserve(message.header().total_bytes());
+      }
       continue;
     }
     if (uploads->empty()) {
-      return absl::InvalidArgumentError("the first message must carry a header");
+      return absl::InvalidArgumentError("the first message must carry the header");
+    }
+    if (++chunks > options_.max_chunks) {
+      return absl::ResourceExhaustedError(
+          absl::StrCat("more than ", options_.max_chunks, " chunks in one call"));
     }
     const std::string& chunk = message.chunk();
     if (static_cast<std::int64_t>(chunk.size()) > options_.max_chunk_bytes) {
@@ -163,33 +132,111 @@ absl::Status WeaveFitService::ReadJointUpload(grpc::ServerContext* context,
     }
     bytes.append(chunk);
   }
+  if (guard.expired()) {
+    return absl::DeadlineExceededError("the upload did not complete before the call's deadline");
+  }
+  if (context->IsCancelled()) return absl::CancelledError("the client went away mid-upload");
   if (uploads->empty()) {
     return absl::InvalidArgumentError("empty request stream: a header was expected");
   }
   return CheckUpload(uploads->back());
 }
 
-absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(const Upload& upload) {
+absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(const Upload& upload,
+                                                                  grpc::ServerContext* context,
+                                                                  Call* call) {
   absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(upload.header.acquisition());
   if (!acquisition.ok()) return acquisition.status();
-  const EstimateOptions options = OptionsFromProto(upload.header.options(), options_.estimate);
-  slots_.Acquire();
-  absl::StatusOr<weavefit::Estimate> estimate = EstimateFromBytes(upload.bytes, *acquisition, options);
-  slots_.Release();
+  EstimateOptions options = OptionsFromProto(upload.header.options(), options_.estimate);
+  const Clock::time_point deadline = call->deadline;
+  options.interrupt = [context, deadline]() -> absl::Status {
+    if (Clock::now() >= deadline) {
+      return absl::DeadlineExceededError("the call's deadline passed during the estimate");
+    }
+    if (context->IsCancelled()) return absl::CancelledError("the client went away mid-estimate");
+    return absl::OkStatus();
+  };
+  if (metrics_ != nullptr) metrics_->received_bytes.Observe(upload.bytes.size());
+  absl::StatusOr<weavefit::Estimate> estimate =
+      EstimateFromBytes(upload.bytes, *acquisition, options);
   if (!estimate.ok()) return estimate.status();
+  if (metrics_ != nullptr) {
+    double decode_ms = 0.0, rest_ms = 0.0;
+    for (const StageTime& t : estimate->timings) {
+      (t.stage == "decode" ? decode_ms : rest_ms) += t.milliseconds;
+    }
+    metrics_->decode_seconds.Observe(decode_ms / 1000.0);
+    metrics_->fit_seconds.Observe(rest_ms / 1000.0);
+  }
   return ReplyFromEstimate(*estimate, upload.header.sample_name());
+}
+
+void WeaveFitService::Finish(const char* method, grpc::ServerContext* context, const Call& call,
+                             const std::vector<Upload>& uploads, const absl::Status& status) {
+  const double seconds = std::chrono::duration<double>(Clock::now() - call.start).count();
+  std::size_t bytes = 0;
+  for (const Upload& u : uploads) bytes += u.bytes.size();
+  const std::string outcome =
+      status.ok() ? std::string("OK")
+                  : absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
+  // Never the payload: a refused caller's upload was not even read.
+  LOG(INFO) << method << " peer=" << context->peer() << " photographs=" << uploads.size()
+            << (uploads.size() == 1 ? absl::StrCat(" file=\"", uploads[0].header.filename(), "\"")
+                                    : std::string())
+            << " bytes=" << bytes << " outcome=" << outcome << " ms=" << seconds * 1000.0;
+  if (metrics_ != nullptr) {
+    metrics_->CountRequest(method, absl::StatusCodeToString(status.code()));
+    metrics_->request_seconds.Observe(seconds);
+  }
+}
+
+grpc::Status WeaveFitService::Estimate(grpc::ServerContext* context,
+                                       grpc::ServerReader<v1::EstimateRequest>* reader,
+                                       v1::EstimateReply* reply) {
+  if (metrics_ != nullptr) metrics_->AddInFlight(1);
+  Call call;
+  std::vector<Upload> uploads;
+  absl::Status status = Begin(context, &call);
+  if (status.ok()) status = ReadUploads(context, reader, 1, &call, &uploads);
+  if (status.ok()) {
+    const Clock::time_point read = Clock::now();
+    status = call.ticket.AwaitSlot(call.deadline, [context] { return context->IsCancelled(); });
+    if (metrics_ != nullptr && status.ok()) {
+      metrics_->queue_seconds.Observe(std::chrono::duration<double>(Clock::now() - read).count());
+    }
+  }
+  if (status.ok()) {
+    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(uploads[0], context, &call);
+    status = one.status();
+    if (one.ok()) *reply = *std::move(one);
+  }
+  call.ticket = Admission::Ticket();  // the slot is free before the reply is sent
+  Finish("Estimate", context, call, uploads, status);
+  if (metrics_ != nullptr) metrics_->AddInFlight(-1);
+  return ToGrpcStatus(status);
 }
 
 grpc::Status WeaveFitService::EstimateJoint(grpc::ServerContext* context,
                                             grpc::ServerReader<v1::EstimateRequest>* reader,
                                             v1::JointEstimateReply* reply) {
-  const auto start = std::chrono::steady_clock::now();
+  if (metrics_ != nullptr) metrics_->AddInFlight(1);
+  Call call;
   std::vector<Upload> uploads;
-  absl::Status status = ReadJointUpload(context, reader, &uploads);
+  absl::Status status = Begin(context, &call);
+  if (status.ok()) {
+    status = ReadUploads(context, reader, options_.max_joint_photographs, &call, &uploads);
+  }
+  if (status.ok()) {
+    const Clock::time_point read = Clock::now();
+    status = call.ticket.AwaitSlot(call.deadline, [context] { return context->IsCancelled(); });
+    if (metrics_ != nullptr && status.ok()) {
+      metrics_->queue_seconds.Observe(std::chrono::duration<double>(Clock::now() - read).count());
+    }
+  }
   std::vector<PhotographEstimate> photographs;
   std::vector<std::string> names;
   for (std::size_t i = 0; status.ok() && i < uploads.size(); ++i) {
-    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(uploads[i]);
+    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(uploads[i], context, &call);
     if (!one.ok()) {
       status = absl::Status(one.status().code(),
                             absl::StrCat("photograph ", i + 1, " (\"", uploads[i].header.filename(),
@@ -200,20 +247,15 @@ grpc::Status WeaveFitService::EstimateJoint(grpc::ServerContext* context,
     names.push_back(one->sample_name());
     *reply->add_photographs() = *std::move(one);
   }
+  call.ticket = Admission::Ticket();
   if (status.ok()) {
     absl::StatusOr<JointEstimate> joint = CombineEstimates(photographs);
     status = joint.status();
     if (joint.ok()) *reply->mutable_joint() = JointToProto(*joint, names);
   }
   if (!status.ok()) reply->Clear();
-  const double ms = std::chrono::duration<double, std::milli>(
-                        std::chrono::steady_clock::now() - start).count();
-  LOG(INFO) << "EstimateJoint peer=" << context->peer() << " photographs=" << uploads.size()
-            << " outcome="
-            << (status.ok() ? std::string("OK")
-                            : absl::StatusCodeToString(status.code()) + ": " +
-                                  std::string(status.message()))
-            << " ms=" << ms;
+  Finish("EstimateJoint", context, call, uploads, status);
+  if (metrics_ != nullptr) metrics_->AddInFlight(-1);
   return ToGrpcStatus(status);
 }
 

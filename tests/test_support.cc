@@ -19,7 +19,6 @@
 extern char** environ;
 
 namespace weavefit::testing {
-namespace {
 
 std::string MakeTempDir() {
   std::string pattern = ::testing::TempDir() + "weavefit_XXXXXX";
@@ -27,8 +26,6 @@ std::string MakeTempDir() {
   if (made == nullptr) ADD_FAILURE() << "mkdtemp failed";
   return pattern;
 }
-
-}  // namespace
 
 CommandResult RunCommand(const std::vector<std::string>& argv) {
   const std::string dir = MakeTempDir();
@@ -130,8 +127,10 @@ bool SidecarBool(const google::protobuf::Struct& s, const std::string& object,
 Daemon::Daemon(const std::vector<std::string>& extra_flags) {
   dir_ = MakeTempDir();
   const std::string port_file = dir_ + "/port";
-  std::vector<std::string> argv = {WEAVEFITD_PATH, "--listen", "127.0.0.1:0",
-                                   "--port-file", port_file, "--workers", "2"};
+  std::vector<std::string> argv = {WEAVEFITD_PATH, "--port-file", port_file, "--workers", "2"};
+  if (std::find(extra_flags.begin(), extra_flags.end(), "--listen") == extra_flags.end()) {
+    argv.insert(argv.end(), {"--listen", "127.0.0.1:0"});
+  }
   argv.insert(argv.end(), extra_flags.begin(), extra_flags.end());
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -148,11 +147,25 @@ Daemon::Daemon(const std::vector<std::string>& extra_flags) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (pid_ > 0 && std::chrono::steady_clock::now() < deadline) {
     std::ifstream in(port_file);
-    if (in >> port_) break;
+    if (in >> port_) {
+      in >> metrics_port_;  // the second line, when metrics are served
+      break;
+    }
     if (!running()) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   if (port_ == 0) ADD_FAILURE() << "weavefitd did not report a port";
+}
+
+std::string Daemon::Log() const {
+  std::ifstream in(dir_ + "/weavefitd.log");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void Daemon::Signal(int signal) const {
+  if (pid_ > 0) kill(pid_, signal);
 }
 
 bool Daemon::running() const {

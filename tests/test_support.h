@@ -21,6 +21,9 @@ struct CommandResult {
 // Runs argv[0] with arguments, no shell, capturing stdout and stderr.
 CommandResult RunCommand(const std::vector<std::string>& argv);
 
+// A fresh folder under the test temporary directory.
+std::string MakeTempDir();
+
 std::string ReadFileOrDie(const std::string& path);
 void WriteFileOrDie(const std::string& path, const std::string& bytes);
 
@@ -44,14 +47,21 @@ class Daemon {
   explicit Daemon(const std::vector<std::string>& extra_flags = {});
   ~Daemon();
   int port() const { return port_; }
+  // The Prometheus port when --metrics-listen was given, else 0.
+  int metrics_port() const { return metrics_port_; }
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  // The daemon's own temporary folder (its port file and log live there).
+  const std::string& dir() const { return dir_; }
+  std::string Log() const;
   bool running() const;
+  void Signal(int signal) const;
   // Sends SIGTERM and waits; returns the exit status (or -1).
   int Stop();
 
  private:
   pid_t pid_ = -1;
   int port_ = 0;
+  int metrics_port_ = 0;
   std::string dir_;
 };
 

@@ -19,17 +19,21 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-// Wall time per stage, appended in order.
+// Wall time per stage, appended in order. Each lap also asks the caller's
+// interrupt (EstimateOptions::interrupt) whether to go on.
 class StageClock {
  public:
-  void Lap(const char* stage) {
+  explicit StageClock(const std::function<absl::Status()>& interrupt) : interrupt_(interrupt) {}
+  [[nodiscard]] absl::Status Lap(const char* stage) {
     const auto now = std::chrono::steady_clock::now();
     laps_.push_back({stage, std::chrono::duration<double, std::milli>(now - last_).count()});
     last_ = now;
+    return interrupt_ ? interrupt_() : absl::OkStatus();
   }
   const std::vector<StageTime>& laps() const { return laps_; }
 
  private:
+  const std::function<absl::Status()>& interrupt_;
   std::vector<StageTime> laps_;
   std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
@@ -537,22 +541,22 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
         "(expect it within about 2 px, up to 4 px when the Lambertian and grazing-scatter "
         "terms are comparable there); light the body or darken the background to see it"));
   }
-  clock.Lap("detect");
+  if (absl::Status s = clock.Lap("detect"); !s.ok()) return s;
 
   const Projection projection = acquisition.GetProjection();
   absl::StatusOr<Profile> profile =
       ExtractProfile(luminance, *cylinder, projection, options.profile);
   if (!profile.ok()) return profile.status();
-  clock.Lap("profile");
+  if (absl::Status s = clock.Lap("profile"); !s.ok()) return s;
 
   absl::StatusOr<PeakPickingResult> peaks =
       PickPeaks(*profile, acquisition.phase_angle_rad, projection, options.peaks);
   if (!peaks.ok()) return peaks.status();
-  clock.Lap("peaks");
+  if (absl::Status s = clock.Lap("peaks"); !s.ok()) return s;
   if (image.channels == 3) {
     estimate.channels =
         SummariseChannels(image, *cylinder, acquisition, options, &estimate.warnings);
-    clock.Lap("channels");
+    if (absl::Status s = clock.Lap("channels"); !s.ok()) return s;
   }
   estimate.method = "peak-picking";
   estimate.profile = *std::move(profile);
@@ -592,7 +596,7 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   }
   if (options.mode == Mode::kAccurate) {
     FitModels(*peaks, acquisition, options, &estimate);
-    clock.Lap("fit");
+    if (absl::Status s = clock.Lap("fit"); !s.ok()) return s;
   }
   if (options.mode == Mode::kFast) {
     estimate.warnings.push_back(
@@ -601,7 +605,7 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   } else {
     EstimateWavelength(luminance, *cylinder, acquisition, *peaks,
                        estimate.profile.background_noise, options, &estimate);
-    clock.Lap("glints");
+    if (absl::Status s = clock.Lap("glints"); !s.ok()) return s;
   }
   if (estimate.method != "comb-fit") {
     // The mirror azimuth should be half the phase angle (a smooth cylinder's
@@ -681,7 +685,7 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
   Estimate estimate;
   estimate.image = {image.width, image.height, image.channels, image.format,
                     image.bit_depth, image.SaturatedCount()};
-  StageClock clock;
+  StageClock clock(options.interrupt);
   return EstimateFromLuminance(image, acquisition, options, std::move(estimate), clock);
 }
 
@@ -691,14 +695,14 @@ absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
   if (absl::Status s = acquisition.Validate(); !s.ok()) return s;
   if (absl::Status s = options.Validate(); !s.ok()) return s;
   Estimate estimate;
-  StageClock clock;
+  StageClock clock(options.interrupt);
   DecodeOptions decode;
   decode.pixels_linear = acquisition.pixels_linear;
   decode.saturation_level = acquisition.saturation_level;
   decode.max_pixels = options.max_pixels;
   absl::StatusOr<Image> image = DecodeImage(bytes, decode);
   if (!image.ok()) return image.status();
-  clock.Lap("decode");
+  if (absl::Status s = clock.Lap("decode"); !s.ok()) return s;
   estimate.image = {image->width, image->height, image->channels, image->format,
                     image->bit_depth, image->SaturatedCount()};
   return EstimateFromLuminance(*image, acquisition, options, std::move(estimate), clock);

@@ -5,6 +5,7 @@
 #define WEAVEFIT_ESTIMATOR_PIPELINE_ESTIMATE_H_
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,10 @@ struct EstimateOptions {
   GlintPeriodOptions glints;
   CombFitOptions comb;
   int fit_max_iterations = 100;  // accurate mode's least-squares fits
+  // Asked after every stage (decode, detect, profile, ...): a non-OK status
+  // stops the estimate and is returned as it is. The daemon passes its
+  // deadline and the client's cancellation here. Unset: never interrupted.
+  std::function<absl::Status()> interrupt;
 
   absl::Status Validate() const;
 };

@@ -147,6 +147,24 @@ TEST(EstimateTest, FromImageMatchesFromBytes) {
 
 // Fast mode: the same peaks, no glint stage, the wavelength left unanalysed
 // and said so.
+// The interrupt is asked after every stage, and its status ends the estimate.
+TEST(EstimateTest, AnInterruptStopsBetweenStagesWithItsStatus) {
+  const Rendered& r = SinusoidRender();
+  const std::string bytes = Encoded(r.image, EncodeFormat::kPng16);
+  EstimateOptions options;
+  int calls = 0;
+  options.interrupt = [&calls]() -> absl::Status {
+    return ++calls == 2 ? absl::DeadlineExceededError("past the deadline") : absl::OkStatus();
+  };
+  absl::StatusOr<Estimate> e = EstimateFromBytes(bytes, Lab(), options);
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kDeadlineExceeded);
+  EXPECT_EQ(calls, 2) << "stopped after decode and detect";
+  calls = -100;  // never fires: every stage asked once
+  e = EstimateFromBytes(bytes, Lab(), options);
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(calls + 100, static_cast<int>(e->timings.size()));
+}
+
 TEST(EstimateTest, FastModeReadsThePeaksOnly) {
   const Rendered& r = SinusoidRender();
   EstimateOptions fast;

@@ -1,0 +1,50 @@
+#include "server/watchdog.h"
+
+namespace weavefit {
+
+Watchdog::Watchdog() : thread_([this] { Run(); }) {}
+
+Watchdog::~Watchdog() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  changed_.notify_all();
+  thread_.join();
+}
+
+Watchdog::Guard::Guard(Watchdog* owner, Clock::time_point deadline,
+                       std::function<void()> expire)
+    : owner_(owner), expire_(std::move(expire)) {
+  std::lock_guard<std::mutex> lock(owner_->mutex_);
+  entry_ = owner_->pending_.emplace(deadline, this);
+  owner_->changed_.notify_all();
+}
+
+Watchdog::Guard::~Guard() {
+  // Holding the lock while erasing also waits for an `expire` in progress
+  // (Run calls it under the lock), so it never runs on a destroyed guard.
+  std::lock_guard<std::mutex> lock(owner_->mutex_);
+  if (!expired_.load()) owner_->pending_.erase(entry_);
+}
+
+void Watchdog::Run() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stopping_) {
+    if (pending_.empty()) {
+      changed_.wait(lock);
+      continue;
+    }
+    auto first = pending_.begin();
+    if (Clock::now() < first->first) {
+      changed_.wait_until(lock, first->first);
+      continue;
+    }
+    Guard* guard = first->second;
+    pending_.erase(first);
+    guard->expired_ = true;
+    guard->expire_();  // grpc::ServerContext::TryCancel: quick, thread-safe
+  }
+}
+
+}  // namespace weavefit
