@@ -1,13 +1,9 @@
 // weavefitd under the conditions of issue 7, through the real binaries:
 // TLS and mutual TLS, bearer tokens and their reload on SIGHUP, metrics,
 // readiness, refusing a plaintext non-loopback address, and draining.
-#include <arpa/inet.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <string>
@@ -50,29 +46,6 @@ bool AwaitReady(std::shared_ptr<grpc::Channel> channel) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   return false;
-}
-
-// Sends `request` to 127.0.0.1:port; the whole response, headers included.
-std::string RawHttp(int port, const std::string& request) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<uint16_t>(port));
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  std::string response;
-  if (connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0) {
-    if (write(fd, request.data(), request.size()) == static_cast<ssize_t>(request.size())) {
-      char buffer[4096];
-      ssize_t n;
-      while ((n = read(fd, buffer, sizeof(buffer))) > 0) response.append(buffer, n);
-    }
-  }
-  close(fd);
-  return response;
-}
-
-std::string HttpGet(int port, const std::string& path) {
-  return RawHttp(port, "GET " + path + " HTTP/1.0\r\nHost: localhost\r\n\r\n");
 }
 
 CommandResult Submit(const Daemon& daemon, std::vector<std::string> args) {

@@ -21,6 +21,12 @@ struct CommandResult {
 // Runs argv[0] with arguments, no shell, capturing stdout and stderr.
 CommandResult RunCommand(const std::vector<std::string>& argv);
 
+// Sends `request` to 127.0.0.1:port and returns the whole response, headers
+// included (empty when nothing answers).
+std::string RawHttp(int port, const std::string& request);
+// GET `path` over HTTP/1.0.
+std::string HttpGet(int port, const std::string& path);
+
 // A fresh folder under the test temporary directory.
 std::string MakeTempDir();
 
@@ -55,6 +61,7 @@ class Daemon {
   std::string Log() const;
   bool running() const;
   void Signal(int signal) const;
+  pid_t pid() const { return pid_; }
   // Sends SIGTERM and waits; returns the exit status (or -1).
   int Stop();
 
