@@ -12,6 +12,7 @@ packages=(
   libgrpc++-dev libgrpc-dev protobuf-compiler protobuf-compiler-grpc libprotobuf-dev
   libabsl-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libgoogle-glog-dev
   libcivetweb-dev libssl-dev
+  clang libclang-rt-14-dev
   gnuplot-nox
   python3-grpcio python3-grpc-tools python3-protobuf
 )

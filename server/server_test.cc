@@ -4,6 +4,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include "server/metrics.h"
 #include "server/server.h"
 #include "server/service.h"
+#include "server/watchdog.h"
 #include "weavefit/v1/weavefit.grpc.pb.h"
 
 namespace weavefit {
@@ -119,6 +121,28 @@ TEST(AdmissionTest, AFreedSlotWakesTheWaiter) {
   EXPECT_TRUE(b.AwaitSlot(Clock::now() + std::chrono::seconds(5), nullptr).ok());
   release.join();
   EXPECT_EQ(admission.running(), 1);
+}
+
+TEST(WatchdogTest, ExpiresOnlyGuardsStillAliveAtTheirDeadline) {
+  Watchdog watchdog;
+  std::atomic<int> expired{0};
+  {
+    Watchdog::Guard early(&watchdog, Clock::now() + milliseconds(20), [&] { ++expired; });
+    std::this_thread::sleep_for(milliseconds(200));
+    EXPECT_TRUE(early.expired());
+  }
+  // Guards that end before their deadline never fire, even while the
+  // watchdog is waiting on them (the fuzzer found a use-after-free here).
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&] {
+      for (int i = 0; i < 200; ++i) {
+        Watchdog::Guard g(&watchdog, Clock::now() + milliseconds(50 + i % 7), [&] { ++expired; });
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(expired.load(), 1);
 }
 
 TEST(MetricsTest, RendersPrometheusTextWithCumulativeBuckets) {

@@ -36,8 +36,12 @@ void Watchdog::Run() {
       continue;
     }
     auto first = pending_.begin();
-    if (Clock::now() < first->first) {
-      changed_.wait_until(lock, first->first);
+    // A copy: wait_until keeps reading its deadline while the lock is
+    // released, and a guard may erase the map node meanwhile (found by
+    // request_fuzzer under AddressSanitizer).
+    const Clock::time_point next = first->first;
+    if (Clock::now() < next) {
+      changed_.wait_until(lock, next);
       continue;
     }
     Guard* guard = first->second;
