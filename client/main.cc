@@ -1,7 +1,7 @@
 // weavefit: the command-line client. One Run<Subcommand> per subcommand.
 //
 //   weavefit estimate IMAGE... --phase-angle DEG     in-process
-//   weavefit submit IMAGE... --server HOST:PORT      through weavefitd
+//   weavefit submit INPUT... --server HOST:PORT[,..] through weavefitd (client/submit.cc)
 //   weavefit render --out FILE [scene flags]         a photograph with truth
 //
 // Exit status: 0 when every image succeeded; otherwise the gRPC/absl status
@@ -24,10 +24,12 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "client/batch.h"
 #include "client/bench.h"
 #include "client/files.h"
+#include "client/plot.h"
 #include "client/report.h"
-#include "client/rpc_client.h"
+#include "client/submit.h"
 #include "estimator/io/encode.h"
 #include "estimator/pipeline/estimate.h"
 #include "estimator/render/render.h"
@@ -36,21 +38,15 @@
 namespace weavefit {
 namespace {
 
-// Flags shared by estimate and submit.
+// Flags of estimate (in-process).
 struct EstimateFlags {
   std::vector<std::string> images;
-  // One for all images, or one per image (--phase-angle 10,60,110).
-  std::vector<double> phase_angles_deg;
-  bool joint = false;  // estimate only: also the joint estimate over the images
-  double diameter_mm = 46.0;
-  double distance_mm = 0.0;
-  bool linear = false;
-  double saturation_level = 0.0;
-  std::string mode = "balanced";
-  bool json = false;
-  Connection connection;    // submit only: --server, --timeout-s, TLS and token
-  std::string token_file;   // submit only
-  std::string profile_csv;  // estimate only: write the azimuthal profile here
+  MetadataFlags metadata;
+  bool joint = false;  // also the joint estimate over the images
+  std::string format = "table";  // table, json or csv
+  bool json = false;             // --json: --format json
+  std::string profile_csv;       // write the azimuthal profile here
+  std::string plot_dir;          // a fit plot per image here (PlotInto)
 };
 
 // azimuth_deg,mean,stderr,count per bin, for plotting and diagnostics.
@@ -61,49 +57,6 @@ std::string ProfileCsv(const Profile& p) {
                     p.stderr_mean[i], ",", p.count[i], "\n");
   }
   return out;
-}
-
-// The request header for one image: flags, or the sidecar's "acquisition"
-// object when the phase angle is not given on the command line.
-absl::StatusOr<v1::RequestHeader> HeaderFor(const EstimateFlags& flags,
-                                            const std::string& image, std::size_t index) {
-  v1::RequestHeader header;
-  v1::Acquisition* acq = header.mutable_acquisition();
-  acq->set_cylinder_diameter_mm(flags.diameter_mm);
-  acq->set_camera_distance_mm(flags.distance_mm);
-  acq->set_pixels_linear(flags.linear);
-  acq->set_saturation_level(flags.saturation_level);
-  if (!flags.phase_angles_deg.empty()) {
-    acq->set_phase_angle_deg(flags.phase_angles_deg.size() == 1 ? flags.phase_angles_deg[0]
-                                                                : flags.phase_angles_deg[index]);
-  } else {
-    const auto sidecar = ReadSidecar(image);
-    const auto phase = sidecar ? StructNumber(*sidecar, "acquisition", "phaseAngleDeg")
-                               : std::nullopt;
-    if (!phase) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "no phase angle for ", image, ": give --phase-angle or a sidecar ",
-          SidecarPath(image), " with acquisition.phaseAngleDeg"));
-    }
-    acq->set_phase_angle_deg(*phase);
-    if (auto d = StructNumber(*sidecar, "acquisition", "cylinderDiameterMm")) {
-      acq->set_cylinder_diameter_mm(*d);
-    }
-    if (auto d = StructNumber(*sidecar, "acquisition", "cameraDistanceMm")) {
-      acq->set_camera_distance_mm(*d);
-    }
-  }
-  if (flags.mode == "fast") {
-    header.mutable_options()->set_mode(v1::FAST);
-  } else if (flags.mode == "accurate") {
-    header.mutable_options()->set_mode(v1::ACCURATE);
-  } else {
-    header.mutable_options()->set_mode(v1::BALANCED);
-  }
-  const std::size_t slash = image.find_last_of('/');
-  header.set_filename(slash == std::string::npos ? image : image.substr(slash + 1));
-  header.set_sample_name(header.filename());
-  return header;
 }
 
 absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& header,
@@ -120,81 +73,30 @@ absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& hea
   return ReplyFromEstimate(*estimate, header.sample_name());
 }
 
-// A message in protobuf's JSON mapping on one line, every field printed.
-std::string JsonLine(const google::protobuf::Message& message) {
-  google::protobuf::util::JsonPrintOptions options;
-  options.always_print_primitive_fields = true;
-  std::string json;
-  // Cannot fail for a well-formed generated message.
-  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
-  return json;
-}
-
-// Prints the joint estimate (a last JSON line, or a table).
-void PrintJoint(const EstimateFlags& flags, const v1::JointEstimate& joint) {
-  if (flags.json) {
-    std::cout << "{\"joint\":" << JsonLine(joint) << "}\n";
-  } else {
-    std::cout << FormatJoint(joint);
+// weavefit estimate: each image in turn, in this process.
+int RunEstimates(EstimateFlags flags) {
+  absl::Status usage;
+  if (flags.json && flags.format != "table" && flags.format != "json") {
+    usage = absl::InvalidArgumentError("--json is --format json; give one of them");
+  } else if (flags.json) {
+    flags.format = "json";
   }
-}
-
-// submit --joint: every photograph in one EstimateJoint call, so the daemon
-// combines them; a photograph it cannot estimate fails the call.
-int RunJointRemote(const EstimateFlags& flags) {
-  std::vector<v1::RequestHeader> headers;
-  std::vector<std::string> files;
-  absl::Status status;
-  for (std::size_t index = 0; status.ok() && index < flags.images.size(); ++index) {
-    absl::StatusOr<std::string> bytes = ReadFile(flags.images[index]);
-    absl::StatusOr<v1::RequestHeader> header =
-        bytes.ok() ? HeaderFor(flags, flags.images[index], index)
-                   : absl::StatusOr<v1::RequestHeader>(bytes.status());
-    if (!header.ok()) {
-      status = absl::Status(header.status().code(),
-                            absl::StrCat(flags.images[index], ": ", header.status().message()));
-      break;
-    }
-    headers.push_back(*std::move(header));
-    files.push_back(*std::move(bytes));
+  const bool json = flags.format == "json";
+  const std::size_t angles = flags.metadata.phase_angles_deg.size();
+  if (usage.ok() && angles > 1 && angles != flags.images.size()) {
+    usage = absl::InvalidArgumentError(absl::StrCat(
+        "--phase-angle gives ", angles, " angles for ", flags.images.size(),
+        " images: give one for all or one per image"));
   }
-  absl::StatusOr<v1::JointEstimateReply> reply =
-      status.ok() ? SubmitJoint(flags.connection, headers, files)
-                  : absl::StatusOr<v1::JointEstimateReply>(status);
-  if (!reply.ok()) {
-    std::cerr << "weavefit: joint estimate: " << absl::StatusCodeToString(reply.status().code())
-              << ": " << reply.status().message() << "\n";
-    if (flags.json) std::cout << ErrorToJson(reply.status()) << "\n";
-    return static_cast<int>(reply.status().code());
+  if (usage.ok() && flags.joint && flags.format == "csv") {
+    usage = absl::InvalidArgumentError("--joint prints a table or JSON, not CSV");
   }
-  std::vector<ReportRow> rows;
-  for (int i = 0; i < reply->photographs_size(); ++i) {
-    const v1::EstimateReply& one = reply->photographs(i);
-    if (flags.json) std::cout << JsonLine(one) << "\n";
-    ReportRow row;
-    row.image = flags.images[i];
-    row.reply = one;
-    if (auto sidecar = ReadSidecar(row.image)) {
-      row.truth_spacing_deg = StructNumber(*sidecar, "truth", "peakSpacingDeg");
-    }
-    rows.push_back(std::move(row));
+  if (!usage.ok()) {
+    std::cerr << "weavefit: " << usage.message() << "\n";
+    if (json) std::cout << ErrorToJson(usage) << "\n";
+    return static_cast<int>(usage.code());
   }
-  if (!flags.json) std::cout << FormatTable(rows);
-  PrintJoint(flags, reply->joint());
-  return 0;
-}
-
-// estimate and submit differ only in where the work is done.
-int RunEstimates(const EstimateFlags& flags, bool remote) {
-  if (flags.phase_angles_deg.size() > 1 && flags.phase_angles_deg.size() != flags.images.size()) {
-    const absl::Status s = absl::InvalidArgumentError(absl::StrCat(
-        "--phase-angle gives ", flags.phase_angles_deg.size(), " angles for ",
-        flags.images.size(), " images: give one for all or one per image"));
-    std::cerr << "weavefit: " << s.message() << "\n";
-    if (flags.json) std::cout << ErrorToJson(s) << "\n";
-    return static_cast<int>(s.code());
-  }
-  if (remote && flags.joint) return RunJointRemote(flags);
+  if (flags.format == "csv") std::cout << CsvHeader();
   std::vector<ReportRow> rows;
   std::vector<PhotographEstimate> photographs;
   std::vector<std::string> names;
@@ -206,13 +108,20 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
     absl::StatusOr<v1::EstimateReply> reply = [&]() -> absl::StatusOr<v1::EstimateReply> {
       absl::StatusOr<std::string> bytes = ReadFile(image);
       if (!bytes.ok()) return bytes.status();
-      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags, image, index);
+      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags.metadata, image, index, nullptr);
       if (!header.ok()) return header.status();
-      if (remote) return SubmitEstimate(flags.connection, *header, *bytes);
-      return EstimateInProcess(*header, *bytes, flags.profile_csv);
+      if (!flags.plot_dir.empty()) header->mutable_options()->set_include_curves(true);
+      absl::StatusOr<v1::EstimateReply> estimated =
+          EstimateInProcess(*header, *bytes, flags.profile_csv);
+      if (estimated.ok() && !flags.plot_dir.empty()) {
+        if (absl::Status s = PlotInto(flags.plot_dir, image, *bytes, &*estimated); !s.ok()) {
+          return s;
+        }
+      }
+      return estimated;
     }();
     if (reply.ok()) {
-      if (flags.json) std::cout << JsonLine(*reply) << "\n";
+      if (json) std::cout << JsonLine(*reply) << "\n";
       row.reply = *reply;
       photographs.push_back(PhotographFromReply(*reply));
       names.push_back(reply->sample_name());
@@ -221,41 +130,40 @@ int RunEstimates(const EstimateFlags& flags, bool remote) {
       std::cerr << "weavefit: " << image << ": "
                 << absl::StatusCodeToString(reply.status().code()) << ": "
                 << reply.status().message() << "\n";
-      if (flags.json) std::cout << ErrorToJson(reply.status()) << "\n";
+      if (json) std::cout << ErrorToJson(reply.status()) << "\n";
       row.error = absl::StrCat(absl::StatusCodeToString(reply.status().code()), ": ",
                                reply.status().message());
     }
+    if (flags.format == "csv") std::cout << CsvRow(row);
     if (auto sidecar = ReadSidecar(image)) {
       row.truth_spacing_deg = StructNumber(*sidecar, "truth", "peakSpacingDeg");
     }
     rows.push_back(std::move(row));
   }
-  if (!flags.json) std::cout << FormatTable(rows);
+  if (flags.format == "table") std::cout << FormatTable(rows);
   if (flags.joint) {
     absl::StatusOr<JointEstimate> joint = CombineEstimates(photographs);
     if (!joint.ok()) {
       if (first_error.ok()) first_error = joint.status();
       std::cerr << "weavefit: joint estimate: " << joint.status().message() << "\n";
-      if (flags.json) std::cout << ErrorToJson(joint.status()) << "\n";
+      if (json) std::cout << ErrorToJson(joint.status()) << "\n";
+    } else if (json) {
+      std::cout << JointJsonLine(JointToProto(*joint, names));
     } else {
-      PrintJoint(flags, JointToProto(*joint, names));
+      std::cout << FormatJoint(JointToProto(*joint, names));
     }
   }
   return first_error.ok() ? 0 : static_cast<int>(first_error.code());
 }
 
-void AddEstimateFlags(CLI::App* app, EstimateFlags* flags, bool remote) {
-  app->add_option("images", flags->images, "photographs (PNG, TIFF, JPEG, EXR)")
-      ->required();
+// The acquisition flags of estimate and submit.
+void AddMetadataFlags(CLI::App* app, MetadataFlags* flags) {
   app->add_option("--phase-angle", flags->phase_angles_deg,
                   "signed phase angle, deg, in (-180, 180); positive = light on "
                   "the image's right; one for all images or one per image, comma-separated "
                   "(default: each sidecar's acquisition.phaseAngleDeg)")
       ->delimiter(',')
       ->allow_extra_args(false);
-  app->add_flag("--joint", flags->joint,
-                "also combine the images, photographs of one sample, into a joint estimate "
-                "of the thread parameters");
   app->add_option("--diameter-mm", flags->diameter_mm, "cylinder diameter, mm")
       ->capture_default_str();
   app->add_option("--distance-mm", flags->distance_mm,
@@ -267,29 +175,81 @@ void AddEstimateFlags(CLI::App* app, EstimateFlags* flags, bool remote) {
       ->capture_default_str();
   app->add_option("--mode", flags->mode, "fast, balanced or accurate")
       ->check(CLI::IsMember({"fast", "balanced", "accurate"}))->capture_default_str();
-  app->add_flag("--json", flags->json,
-                "print protobuf's JSON mapping of each reply, one per line");
-  if (!remote) {
-    app->add_option("--profile-csv", flags->profile_csv,
-                    "write the azimuthal profile (azimuth_deg,mean,stderr,count) of the last image");
-  }
-  if (remote) {
-    Connection& c = flags->connection;
-    app->add_option("--server", c.server, "weavefitd address host:port")
-        ->capture_default_str();
-    app->add_option("--timeout-s", c.timeout_s, "deadline per image, s")
-        ->capture_default_str()->check(CLI::PositiveNumber);
-    app->add_option("--tls-ca", c.tls_ca,
-                    "CA certificate (PEM) that signed the daemon's; turns TLS on")
-        ->check(CLI::ExistingFile);
-    app->add_option("--tls-cert", c.tls_cert, "client certificate (PEM), for mutual TLS")
-        ->check(CLI::ExistingFile);
-    app->add_option("--tls-key", c.tls_key, "client private key (PEM), for mutual TLS")
-        ->check(CLI::ExistingFile);
-    app->add_option("--token-file", flags->token_file,
-                    "file whose first line is the bearer token (default: $WEAVEFIT_TOKEN)")
-        ->check(CLI::ExistingFile);
-  }
+}
+
+void AddFormatFlags(CLI::App* app, std::string* format, bool* json) {
+  app->add_option("--format", *format,
+                  "stdout: table, json (protobuf's JSON mapping of each reply, one per line) or "
+                  "csv (one row per image; columns in client/report.h)")
+      ->check(CLI::IsMember({"table", "json", "csv"}))
+      ->capture_default_str();
+  app->add_flag("--json", *json, "the same as --format json");
+}
+
+void AddEstimateFlags(CLI::App* app, EstimateFlags* flags) {
+  app->add_option("images", flags->images, "photographs (PNG, TIFF, JPEG, EXR)")->required();
+  AddMetadataFlags(app, &flags->metadata);
+  app->add_flag("--joint", flags->joint,
+                "also combine the images, photographs of one sample, into a joint estimate "
+                "of the thread parameters");
+  AddFormatFlags(app, &flags->format, &flags->json);
+  app->add_option("--profile-csv", flags->profile_csv,
+                  "write the azimuthal profile (azimuth_deg,mean,stderr,count) of the last image");
+  app->add_option("--plot", flags->plot_dir,
+                  "write a fit plot per image into this folder (DIR/<image stem>.png): the "
+                  "profile with its error band, every model's fit, the peaks, the residuals and "
+                  "the photograph with the detected limbs");
+}
+
+void AddSubmitFlags(CLI::App* app, SubmitFlags* flags) {
+  app->add_option("inputs", flags->inputs,
+                  "photographs (PNG, TIFF, JPEG, EXR), folders (their images, sorted) and glob "
+                  "patterns (quoted: expanded here)");
+  AddMetadataFlags(app, &flags->metadata);
+  app->add_option("--manifest", flags->manifest,
+                  "CSV with a header row: path (relative to the manifest's folder), "
+                  "phase_angle_deg, diameter_mm, distance_mm, sample_name; its images are "
+                  "submitted too, its cells override flags and sidecars")
+      ->check(CLI::ExistingFile);
+  app->add_flag("--joint", flags->joint,
+                "send the images, photographs of one sample, in one call for the daemon's joint "
+                "estimate of the thread parameters");
+  AddFormatFlags(app, &flags->format, &flags->json);
+  app->add_option("--out", flags->out,
+                  "also append each result to this file (.csv: CSV, else JSON lines "
+                  "{\"image\", \"reply\"}); images whose results it holds are skipped");
+  app->add_flag("--no-skip", flags->no_skip,
+                "estimate images whose results --out already holds again (their old records are "
+                "dropped as the run starts)");
+  app->add_option("--jobs", flags->jobs, "uploads in flight at once")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  app->add_option("--retries", flags->retry.max_retries,
+                  "retries per image on UNAVAILABLE, RESOURCE_EXHAUSTED and DEADLINE_EXCEEDED, "
+                  "with exponential backoff and jitter")
+      ->check(CLI::Range(0, 20))
+      ->capture_default_str();
+  app->add_flag("--quiet", flags->quiet, "no progress or retry lines on stderr");
+  app->add_option("--plot", flags->plot_dir,
+                  "write a fit plot per image into this folder (DIR/<image stem>.png; the daemon "
+                  "returns the curves, the photograph is drawn from the local file)");
+  Connection& c = flags->connection;
+  app->add_option("--server", c.server,
+                  "weavefitd address host:port; several, host1:port,host2:port, or a DNS name "
+                  "with several addresses (dns:///name:port), share the work (round_robin)")
+      ->capture_default_str();
+  app->add_option("--timeout-s", c.timeout_s, "deadline per image and attempt, s")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  app->add_option("--tls-ca", c.tls_ca,
+                  "CA certificate (PEM) that signed the daemon's; turns TLS on")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-cert", c.tls_cert, "client certificate (PEM), for mutual TLS")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-key", c.tls_key, "client private key (PEM), for mutual TLS")
+      ->check(CLI::ExistingFile);
+  app->add_option("--token-file", flags->token_file,
+                  "file whose first line is the bearer token (default: $WEAVEFIT_TOKEN)")
+      ->check(CLI::ExistingFile);
 }
 
 struct RenderFlags {
@@ -363,7 +323,10 @@ absl::Status LoadSceneFile(const std::string& path, RenderFlags& flags) {
     scene = &it->second.struct_value();
   }
   std::vector<SceneParam> params = SceneParams(flags.scene);
-  for (const auto& [key, value] : scene->fields()) {
+  for (const auto& field : scene->fields()) {
+    // Named copies: a lambda may not capture a structured binding in C++17.
+    const std::string& key = field.first;
+    const google::protobuf::Value& value = field.second;
     if (key == "model") {
       std::string m = value.string_value();
       for (char& c : m) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -477,12 +440,14 @@ int main(int argc, char** argv) {
   CLI::App app{"weavefit: thread geometry of glossy woven materials from one photograph"};
   app.require_subcommand(1);
   weavefit::EstimateFlags estimate_flags;
-  weavefit::EstimateFlags submit_flags;
+  weavefit::SubmitFlags submit_flags;
   weavefit::RenderFlags render_flags;
   CLI::App* estimate = app.add_subcommand("estimate", "estimate in-process");
-  weavefit::AddEstimateFlags(estimate, &estimate_flags, false);
-  CLI::App* submit = app.add_subcommand("submit", "estimate through a weavefitd daemon");
-  weavefit::AddEstimateFlags(submit, &submit_flags, true);
+  weavefit::AddEstimateFlags(estimate, &estimate_flags);
+  CLI::App* submit = app.add_subcommand(
+      "submit", "estimate through weavefitd daemons: files, folders, globs or a manifest, "
+                "several at once, with retries");
+  weavefit::AddSubmitFlags(submit, &submit_flags);
   CLI::App* render = app.add_subcommand("render", "render a cylinder photograph with a truth sidecar");
   weavefit::AddRenderFlags(render, &render_flags);
   weavefit::BenchFlags bench_flags;
@@ -525,14 +490,8 @@ int main(int argc, char** argv) {
     }
   }
   CLI11_PARSE(app, argc, argv);
-  if (*estimate) return weavefit::RunEstimates(estimate_flags, false);
-  if (*submit) {
-    if (absl::Status s = submit_flags.connection.LoadToken(submit_flags.token_file); !s.ok()) {
-      std::cerr << "weavefit: " << s.message() << "\n";
-      return static_cast<int>(s.code());
-    }
-    return weavefit::RunEstimates(submit_flags, true);
-  }
+  if (*estimate) return weavefit::RunEstimates(estimate_flags);
+  if (*submit) return weavefit::RunSubmit(submit_flags);
   if (*render) return weavefit::RunRender(render_flags);
   if (*bench) {
     if (bench_flags.perf) return weavefit::RunPerf(bench_flags);

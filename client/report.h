@@ -8,6 +8,10 @@
 
 #include "weavefit/v1/weavefit.pb.h"
 
+namespace google::protobuf {
+class Message;
+}  // namespace google::protobuf
+
 namespace weavefit {
 
 // One row of the result table: an image and its reply, or the error.
@@ -21,6 +25,27 @@ struct ReportRow {
 
 // A fixed-width table, one line per image, then the warnings per image.
 std::string FormatTable(const std::vector<ReportRow>& rows);
+
+// A message in protobuf's JSON mapping on one line, every field printed.
+std::string JsonLine(const google::protobuf::Message& message);
+
+// {"joint": {...}} and a line end: the last line of a joint estimate in JSON.
+std::string JointJsonLine(const v1::JointEstimate& joint);
+
+// CSV (RFC 4180, "\n" line ends): the header line, then one line per image.
+// Columns: image, sample_name, status ("OK" or "CODE: message"), model,
+// method; for each measurement X of peak_spacing_deg, max_slope,
+// max_inclination_deg (arctan of the max slope: Irawan & Marschner's umax),
+// wavelength_mm, amplitude_mm and specular_azimuth_deg the three columns X,
+// X_stderr (both empty when unresolved) and X_upper_bound (empty unless an
+// unresolved X has a bound); center_x_px, radius_px, axis_angle_deg; and
+// warnings (joined with " | ").
+std::string CsvHeader();
+std::string CsvRow(const ReportRow& row);
+// The column names of CsvHeader(), in order.
+std::vector<std::string> CsvColumns();
+// One CSV field, quoted when it holds a comma, a quote or a line break.
+std::string CsvField(const std::string& text);
 
 // The joint estimate over several photographs of one sample, a few lines.
 std::string FormatJoint(const v1::JointEstimate& joint);

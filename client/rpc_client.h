@@ -2,6 +2,7 @@
 #ifndef WEAVEFIT_CLIENT_RPC_CLIENT_H_
 #define WEAVEFIT_CLIENT_RPC_CLIENT_H_
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,7 +20,9 @@ constexpr std::size_t kChunkBytes = 1 << 20;  // the contract's chunk limit
 
 // Where and how to reach a daemon.
 struct Connection {
-  std::string server = "127.0.0.1:50051";  // host:port
+  // host:port; or several, host1:port,host2:port; or any gRPC target such
+  // as dns:///name:port (every address the name resolves to is used).
+  std::string server = "127.0.0.1:50051";
   // TLS: the CA (PEM file) that signed the daemon's certificate; empty =
   // plaintext. A client certificate and key (PEM files) for mutual TLS.
   std::string tls_ca;
@@ -35,18 +38,76 @@ struct Connection {
   absl::Status LoadToken(const std::string& token_file);
 };
 
-// A channel with the credentials and keepalive settings the daemon expects.
+// What gRPC is given for a --server value.
+struct ChannelTarget {
+  std::string target;     // for grpc::CreateCustomChannel
+  std::string authority;  // the :authority and TLS name; empty = gRPC's own
+};
+
+// The numeric addresses (IPv4 dotted, IPv6 without brackets) of a host name.
+using HostResolver =
+    std::function<absl::StatusOr<std::vector<std::string>>(const std::string& host)>;
+
+// getaddrinfo(3): every TCP address of `host`; UNAVAILABLE when it has none.
+absl::StatusOr<std::vector<std::string>> ResolveHost(const std::string& host);
+
+// The gRPC target for `server`:
+// - one address, or a target with a scheme (dns:///name:port, ipv4:...,
+//   unix:...), is passed on as it is; gRPC resolves it, and round_robin uses
+//   every address a name resolves to;
+// - a comma-separated list host1:port,host2:port ([v6]:port for IPv6
+//   literals) is resolved here, names through `resolve`, into one ipv4: or
+//   ipv6: target (gRPC's schemes that take several addresses; one family per
+//   target, so IPv4 when every entry has an IPv4 address, else IPv6 when
+//   every entry has one). Its authority, the name TLS checks, is the first
+//   entry's host:port: under TLS every daemon's certificate must carry that
+//   name (or use one DNS name for all of them).
+// INVALID_ARGUMENT for an entry without a port or a bare IPv6 address;
+// UNAVAILABLE when a name does not resolve; what `resolve` returns otherwise.
+absl::StatusOr<ChannelTarget> ChannelTargetFor(const std::string& server,
+                                               const HostResolver& resolve = ResolveHost);
+
+// gRPC's service config for the channel: round_robin over every address of
+// the target (a dead backend drops out of the rotation until it reconnects).
+extern const char kRoundRobinServiceConfig[];
+
+// A channel with the credentials and keepalive settings the daemon expects,
+// spread over every address of the target with round_robin.
 absl::StatusOr<std::shared_ptr<grpc::Channel>> MakeChannel(const Connection& connection);
 
-// Streams `header` then `bytes` in chunks to the daemon and returns its
-// reply; the gRPC status is carried over as an absl::Status with the same code.
+// One channel for many calls: a batch sets its connections up once and
+// round_robin spreads the calls over every daemon. Thread-safe: calls may
+// run concurrently.
+class Client {
+ public:
+  static absl::StatusOr<Client> Connect(const Connection& connection);
+
+  // Streams `header` then `bytes` in chunks to a daemon and returns its
+  // reply; the gRPC status is carried over as an absl::Status with the same
+  // code. The deadline is the connection's timeout_s.
+  absl::StatusOr<v1::EstimateReply> Estimate(v1::RequestHeader header,
+                                             const std::string& bytes) const;
+
+  // Streams several photographs of one sample (each header then its bytes)
+  // to EstimateJoint and returns each photograph's estimate and the joint
+  // one. The deadline is the connection's timeout_s per photograph.
+  absl::StatusOr<v1::JointEstimateReply> EstimateJoint(std::vector<v1::RequestHeader> headers,
+                                                       const std::vector<std::string>& bytes) const;
+
+ private:
+  Client(Connection connection, std::shared_ptr<grpc::Channel> channel)
+      : connection_(std::move(connection)), channel_(std::move(channel)) {}
+
+  Connection connection_;
+  std::shared_ptr<grpc::Channel> channel_;
+};
+
+// One call on a channel of its own (Client::Connect, then Estimate).
 absl::StatusOr<v1::EstimateReply> SubmitEstimate(const Connection& connection,
                                                  v1::RequestHeader header,
                                                  const std::string& bytes);
 
-// Streams several photographs of one sample (each header then its bytes) to
-// the daemon's EstimateJoint and returns each photograph's estimate and the
-// joint one. The deadline is the connection's per photograph.
+// One EstimateJoint call on a channel of its own.
 absl::StatusOr<v1::JointEstimateReply> SubmitJoint(const Connection& connection,
                                                    std::vector<v1::RequestHeader> headers,
                                                    const std::vector<std::string>& bytes);

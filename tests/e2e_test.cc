@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 #include <algorithm>
+#include <fstream>
 
 #include "absl/strings/str_split.h"
 #include "estimator/io/encode.h"
@@ -92,6 +93,20 @@ TEST_F(EndToEnd, SubmittedFixturesAgreeWithTheirTruth) {
     const google::protobuf::Struct sidecar = ReadSidecar(image);
     EXPECT_EQ(v1::ProfileModel_Name(reply.model()), SidecarString(sidecar, "truth", "model"));
     const double truth_spacing = *SidecarNumber(sidecar, "truth", "peakSpacingDeg");
+    // The inclination for cloth renderers (Irawan & Marschner's umax):
+    // arctan of the max slope in degrees, its error carried through, and
+    // the bound of a hidden split.
+    const v1::Measurement& slope = reply.max_slope();
+    const v1::Measurement& umax = reply.max_inclination_deg();
+    EXPECT_EQ(umax.resolved(), slope.resolved());
+    if (slope.resolved()) {
+      EXPECT_NEAR(umax.value(), std::atan(slope.value()) * 180.0 / M_PI, 1e-9);
+      EXPECT_NEAR(umax.value(), reply.peak_spacing_deg().value() / 2.0, 1e-9);
+      EXPECT_NEAR(umax.stderr(),
+                  slope.stderr() / (1.0 + slope.value() * slope.value()) * 180.0 / M_PI, 1e-12);
+    } else {
+      EXPECT_NEAR(umax.upper_bound(), std::atan(slope.upper_bound()) * 180.0 / M_PI, 1e-9);
+    }
     if (reply.model() == v1::SMOOTH) {
       EXPECT_FALSE(reply.peak_spacing_deg().resolved());
     } else {
@@ -294,6 +309,113 @@ TEST_F(EndToEnd, BadInputGetsAClearErrorAndTheDaemonKeepsServing) {
   EXPECT_EQ(Health(daemon_->address()), grpc::health::v1::HealthCheckResponse::SERVING);
   const CommandResult after = Submit({good, "--json"});
   EXPECT_EQ(after.exit_code, 0) << after.err;
+}
+
+// Calls the daemon finished so far (one "Estimate peer=" log line each).
+int Served(const Daemon& daemon) {
+  const std::string log = daemon.Log();
+  int n = 0;
+  for (std::size_t at = log.find("Estimate peer="); at != std::string::npos;
+       at = log.find("Estimate peer=", at + 1)) {
+    ++n;
+  }
+  return n;
+}
+
+// The images of each record of a JSON-lines results file, and that each
+// holds a reply.
+std::vector<std::string> ResultImages(const std::string& path) {
+  std::vector<std::string> images;
+  const std::vector<std::string> lines =
+      absl::StrSplit(ReadFileOrDie(path), '\n', absl::SkipEmpty());
+  for (const std::string& line : lines) {
+    google::protobuf::Struct record;
+    EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(line, &record).ok()) << line;
+    EXPECT_TRUE(record.fields().at("reply").has_struct_value()) << line;
+    images.push_back(record.fields().at("image").string_value());
+  }
+  return images;
+}
+
+// A batch with --out: a glob first, then the whole folder (only what is not
+// in the file yet is estimated), then one image again with --no-skip after a
+// run "killed" mid-write (a torn last record): one record per image.
+TEST_F(EndToEnd, BatchResultsFileSkipsWhatIsDone) {
+  const std::string out = MakeTempDir() + "/results.jsonl";
+  const std::vector<std::string> all = FixtureImages(kFixtures);
+  std::size_t gauze = 0;
+  for (const std::string& image : all) gauze += image.find("/gauze_") != std::string::npos;
+  ASSERT_GE(gauze, 4u);
+
+  int served = Served(*daemon_);
+  const CommandResult first = Submit({kFixtures + "/gauze_*", "--out", out, "--jobs", "3"});
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_EQ(Served(*daemon_) - served, static_cast<int>(gauze));
+  EXPECT_EQ(ResultImages(out).size(), gauze);
+  // Plain progress lines (stderr is not a terminal), one per image.
+  EXPECT_NE(first.err.find("[1/" + std::to_string(gauze) + "] "), std::string::npos) << first.err;
+
+  served = Served(*daemon_);
+  const CommandResult second = Submit({kFixtures, "--out", out, "--format", "csv"});
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  EXPECT_EQ(Served(*daemon_) - served, static_cast<int>(all.size() - gauze));
+  EXPECT_NE(second.err.find(std::to_string(gauze) + " of " + std::to_string(all.size()) +
+                            " images skipped"),
+            std::string::npos)
+      << second.err;
+  // Stdout: the CSV of what was estimated in this run.
+  EXPECT_EQ(std::count(second.out.begin(), second.out.end(), '\n'),
+            static_cast<long>(1 + all.size() - gauze));
+  std::vector<std::string> images = ResultImages(out);
+  EXPECT_EQ(images.size(), all.size());
+
+  {
+    std::ofstream torn(out, std::ios::app);
+    torn << "{\"image\":\"" << all[0] << "\",\"rep";  // no line end: cut off
+  }
+  const std::string again = kFixtures + "/gauze_sinusoid_p10.png";
+  served = Served(*daemon_);
+  const CommandResult third = Submit({again, "--out", out, "--no-skip"});
+  ASSERT_EQ(third.exit_code, 0) << third.err;
+  EXPECT_EQ(Served(*daemon_) - served, 1);
+  EXPECT_NE(third.err.find("dropped a last record cut off"), std::string::npos) << third.err;
+  images = ResultImages(out);
+  EXPECT_EQ(images.size(), all.size());
+  EXPECT_EQ(std::count(images.begin(), images.end(), again), 1);
+  EXPECT_EQ(images.back(), again);  // redone: its old record replaced by the new one
+}
+
+// A CSV manifest gives a copied photograph (no sidecar) its phase angle and
+// sample name; another row names a fixture and leaves its phase angle to
+// the sidecar. Without the manifest the copy fails, named in the summary.
+TEST_F(EndToEnd, ManifestGivesEachImageItsMetadata) {
+  const std::string dir = MakeTempDir();
+  WriteFileOrDie(dir + "/copy.png", ReadFileOrDie(kFixtures + "/gauze_sinusoid_p10.png"));
+  WriteFileOrDie(dir + "/manifest.csv",
+                 "path,phase_angle_deg,sample_name\n"
+                 "copy.png,10,\"gauze, copied\"\n" +
+                     kFixtures + "/saw_m030_m10.png,,saw\n");
+  const CommandResult run = Submit({"--manifest", dir + "/manifest.csv", "--json"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::vector<std::string> lines = absl::StrSplit(run.out, '\n', absl::SkipEmpty());
+  ASSERT_EQ(lines.size(), 2u) << run.out;
+  EXPECT_EQ(ParseReply(lines[0]).sample_name(), "gauze, copied");
+  EXPECT_EQ(ParseReply(lines[0]).model(), v1::SINUSOID);
+  EXPECT_EQ(ParseReply(lines[1]).sample_name(), "saw");
+  EXPECT_EQ(ParseReply(lines[1]).model(), v1::SAWTOOTH);
+
+  const CommandResult bare =
+      Submit({dir + "/copy.png", kFixtures + "/saw_m030_m10.png", "--format", "csv"});
+  EXPECT_EQ(bare.exit_code, 3) << bare.err;
+  EXPECT_NE(bare.err.find("1 of 2 images failed:\n  " + dir +
+                          "/copy.png: INVALID_ARGUMENT: no phase angle for"),
+            std::string::npos)
+      << bare.err;
+  EXPECT_NE(bare.out.find(dir + "/copy.png,,\"INVALID_ARGUMENT: no phase angle"),
+            std::string::npos)
+      << bare.out;
+  EXPECT_NE(bare.out.find("/saw_m030_m10.png,saw_m030_m10.png,OK,SAWTOOTH"), std::string::npos)
+      << bare.out;
 }
 
 TEST(DaemonLifecycle, SigtermStopsCleanly) {

@@ -178,6 +178,15 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     fit.num_residuals = static_cast<int>(used.size());
     fit.num_params = kNuisance + (model == ProfileModel::kSmooth ? 0 : 1);
     fit.chi2 = 2.0 * summary.final_cost;
+    for (int i : used) {
+      const double view = ViewAngleRad(profile.azimuth_rad[i], projection);
+      const ProfileSampleCost cost(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
+                                   phase_angle_rad, options.smoothing_rad, mirror0, view);
+      double r = 0.0;
+      cost(slope, p, &r);
+      fit.curve_azimuth_rad.push_back(profile.azimuth_rad[i]);
+      fit.curve.push_back(smoothed[i] + r * sigma_of(i));
+    }
     fit.bic = fit.chi2 + fit.num_params * std::log(static_cast<double>(fit.num_residuals));
     // Standard errors from the covariance, scaled by the reduced chi-square
     // when the residuals say the noise model is too small.

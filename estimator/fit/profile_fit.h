@@ -41,6 +41,10 @@ struct ModelFit {
   int num_params = 0;
   double bic = 0.0;             // chi2 + num_params·ln(num_residuals)
   std::string message;          // the solver's word when not converged
+  // The fitted model at the bins it was fitted to, for plots: azimuth (rad)
+  // and level (the profile's units; the model is smoothed like the data).
+  std::vector<double> curve_azimuth_rad;
+  std::vector<double> curve;
 };
 
 struct ProfileFitResult {

@@ -13,6 +13,7 @@
 #include "estimator/glints/comb_fit.h"
 #include "estimator/glints/glint_period.h"
 #include "estimator/profile/arc_signals.h"
+#include "estimator/stats/smooth.h"
 
 namespace weavefit {
 namespace {
@@ -395,6 +396,34 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
 
 // `accurate` mode: least-squares fits of every candidate model to the
 // profile (smoothed as peak picking found necessary), the lowest BIC wins.
+// The curves of a fit plot (EstimateOptions::include_curves): the profile
+// smoothed as peak picking read it, and each model fitted to it. Runs the
+// profile fits afresh, so it changes nothing in the estimate.
+void AddCurves(const PeakPickingResult& peaks, const Acquisition& acquisition,
+               const EstimateOptions& options, Estimate* estimate) {
+  const Profile& profile = estimate->profile;
+  if (profile.NumBins() == 0) return;
+  ModelCurve smoothed;
+  smoothed.label = "smoothed profile";
+  smoothed.model = estimate->model;
+  smoothed.azimuth_rad = profile.azimuth_rad;
+  smoothed.value = Smooth(profile.mean, peaks.smoothing_rad / std::max(profile.bin_width_rad, 1e-9));
+  estimate->curves.push_back(std::move(smoothed));
+  ProfileFitOptions fit_options;
+  fit_options.smoothing_rad = peaks.smoothing_rad;
+  fit_options.max_iterations = options.fit_max_iterations;
+  const double start = estimate->max_slope.resolved ? estimate->max_slope.value
+                                                     : (peaks.split_resolved ? peaks.max_slope : 0.2);
+  absl::StatusOr<ProfileFitResult> fits = FitProfileModels(
+      profile, acquisition.phase_angle_rad, acquisition.GetProjection(), start, fit_options);
+  if (!fits.ok()) return;
+  for (const ModelFit& fit : fits->fits) {
+    if (fit.curve.empty()) continue;
+    estimate->curves.push_back({absl::StrCat(ProfileModelName(fit.model), " fit"), fit.model,
+                                fit.model == estimate->model, fit.curve_azimuth_rad, fit.curve});
+  }
+}
+
 void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
                const EstimateOptions& options, Estimate* estimate) {
   ProfileFitOptions fit_options;
@@ -622,6 +651,8 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
           peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg));
     }
   }
+  estimate.max_inclination_rad = MaxInclinationFromSlope(estimate.max_slope);
+  if (options.include_curves) AddCurves(*peaks, acquisition, options, &estimate);
   estimate.timings = clock.laps();
   return estimate;
 }
@@ -663,6 +694,14 @@ absl::Status EstimateOptions::Validate() const {
   if (absl::Status s = glints.Validate(); !s.ok()) return s;
   if (absl::Status s = comb.Validate(); !s.ok()) return s;
   return peaks.Validate();
+}
+
+Quantity MaxInclinationFromSlope(const Quantity& max_slope) {
+  if (!max_slope.resolved) {
+    return {0.0, 0.0, false, max_slope.upper_bound > 0.0 ? std::atan(max_slope.upper_bound) : 0.0};
+  }
+  const double m = max_slope.value;
+  return {std::atan(m), max_slope.stderr_value / (1.0 + m * m), true};
 }
 
 std::string Estimate::BriefReport() const {

@@ -51,6 +51,10 @@ struct EstimateOptions {
   GlintPeriodOptions glints;
   CombFitOptions comb;
   int fit_max_iterations = 100;  // accurate mode's least-squares fits
+  // Also return the curves a fit plot shows (Estimate::curves): the profile
+  // as peak picking smoothed it and each model's least-squares fit to it (in
+  // every mode; a plot costs the fits' time).
+  bool include_curves = false;
   // Asked after every stage (decode, detect, profile, ...): a non-OK status
   // stops the estimate and is returned as it is. The daemon passes its
   // deadline and the client's cancellation here. Unset: never interrupted.
@@ -74,6 +78,16 @@ struct CandidateScore {
   std::string method;
   double score = 0.0;  // lower is better
   bool selected = false;
+};
+
+// A curve over the azimuthal profile, for plots: peak picking's smoothed
+// profile, or one model's least-squares fit to it.
+struct ModelCurve {
+  std::string label;  // "smoothed profile", "SINUSOID fit", ...
+  ProfileModel model = ProfileModel::kSmooth;
+  bool selected = false;  // the model the estimate reports
+  std::vector<double> azimuth_rad;
+  std::vector<double> value;  // profile units
 };
 
 struct StageTime {
@@ -100,10 +114,19 @@ struct ChannelSummary {
   double grazing_level = 0.0;  // mean level at 70–84° toward the light, above the background
 };
 
+// The largest inclination of a thread to the cloth's surface, arctan of the
+// max slope m, in radians: the u_max of Irawan & Marschner's woven-cloth
+// model, and half the peak spacing (DESIGN.md §2). Its standard error is the
+// slope's carried through d(arctan m)/dm = 1/(1 + m²); an unresolved slope
+// gives an unresolved inclination bounded by arctan of the slope's bound
+// (0 = no bound).
+Quantity MaxInclinationFromSlope(const Quantity& max_slope);
+
 struct Estimate {
   ProfileModel model = ProfileModel::kSmooth;
   Quantity peak_spacing_rad;
   Quantity max_slope;
+  Quantity max_inclination_rad;  // MaxInclinationFromSlope(max_slope)
   Quantity wavelength_mm;
   Quantity amplitude_mm;
   Quantity specular_azimuth_rad;
@@ -119,6 +142,8 @@ struct Estimate {
   double smoothing_rad = 0.0;
   // Per colour channel, for three-channel photographs; empty otherwise.
   std::vector<ChannelSummary> channels;
+  // With EstimateOptions::include_curves; empty otherwise.
+  std::vector<ModelCurve> curves;
   // One line for logs: model, spacing and slope with their errors.
   std::string BriefReport() const;
 };

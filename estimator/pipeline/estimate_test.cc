@@ -66,6 +66,12 @@ void ExpectSinusoidEstimate(const Estimate& e, double tolerance_deg) {
   ASSERT_TRUE(e.max_slope.resolved);
   EXPECT_NEAR(e.max_slope.value, std::tan(0.5 * e.peak_spacing_rad.value), 1e-12);
   EXPECT_NEAR(e.max_slope.value, 0.24, 0.01);
+  // The inclination (Irawan & Marschner's u_max) is arctan(m), half the spacing.
+  ASSERT_TRUE(e.max_inclination_rad.resolved);
+  EXPECT_NEAR(e.max_inclination_rad.value, std::atan(e.max_slope.value), 1e-12);
+  EXPECT_NEAR(e.max_inclination_rad.value, 0.5 * e.peak_spacing_rad.value, 1e-12);
+  EXPECT_NEAR(e.max_inclination_rad.stderr_value,
+              e.max_slope.stderr_value / (1.0 + e.max_slope.value * e.max_slope.value), 1e-15);
   EXPECT_TRUE(e.specular_azimuth_rad.resolved);
   EXPECT_NEAR(e.specular_azimuth_rad.value / kDeg, 5.0, 0.5);
   // The wavelength (1 mm, 7 px per period: near the limit of the glint
@@ -364,9 +370,28 @@ TEST(EstimateTest, HiddenSplitIsBoundedFromAbove) {
   EXPECT_GE(e->max_slope.upper_bound, r->truth.max_slope);
   EXPECT_LT(e->max_slope.upper_bound, 0.1);  // a bound worth having
   EXPECT_NEAR(e->peak_spacing_rad.upper_bound, 2.0 * std::atan(e->max_slope.upper_bound), 1e-12);
+  EXPECT_FALSE(e->max_inclination_rad.resolved);
+  EXPECT_NEAR(e->max_inclination_rad.upper_bound, std::atan(e->max_slope.upper_bound), 1e-12);
   bool said = false;
   for (const std::string& w : e->warnings) said = said || w.find("bounds the max slope") != std::string::npos;
   EXPECT_TRUE(said);
+}
+
+// arctan of the slope, its error through d(arctan m)/dm = 1/(1 + m²), and
+// an unresolved slope's bound carried over (hand-computed values).
+TEST(MaxInclinationTest, ArctanOfTheSlopeWithItsErrorPropagated) {
+  const Quantity one = MaxInclinationFromSlope({1.0, 0.1, true});
+  EXPECT_TRUE(one.resolved);
+  EXPECT_NEAR(one.value, M_PI / 4.0, 1e-15);    // 45°
+  EXPECT_NEAR(one.stderr_value, 0.05, 1e-15);  // 0.1 / (1 + 1)
+  const Quantity gauze = MaxInclinationFromSlope({0.2356, 0.001, true});
+  EXPECT_NEAR(gauze.value / kDeg, 13.2571, 1e-4);  // half the gauze's 26.51° spacing
+  EXPECT_NEAR(gauze.stderr_value, 0.001 / (1.0 + 0.2356 * 0.2356), 1e-15);
+  const Quantity bounded = MaxInclinationFromSlope({0.0, 0.0, false, 0.05});
+  EXPECT_FALSE(bounded.resolved);
+  EXPECT_EQ(bounded.value, 0.0);
+  EXPECT_NEAR(bounded.upper_bound, std::atan(0.05), 1e-15);
+  EXPECT_EQ(MaxInclinationFromSlope(Quantity()).upper_bound, 0.0);  // no bound stays none
 }
 
 }  // namespace

@@ -152,6 +152,7 @@ absl::StatusOr<JointEstimate> CombineEstimates(const std::vector<PhotographEstim
                                   joint.wavelength_mm.stderr_value / joint.wavelength_mm.value);
     joint.amplitude_mm = {h0, h0 * rel, true};
   }
+  joint.max_inclination_rad = MaxInclinationFromSlope(joint.max_slope);
   return joint;
 }
 

@@ -27,6 +27,7 @@ struct JointEstimate {
   ProfileModel model = ProfileModel::kSmooth;
   Quantity peak_spacing_rad;
   Quantity max_slope;
+  Quantity max_inclination_rad;  // MaxInclinationFromSlope(max_slope)
   Quantity wavelength_mm;
   Quantity amplitude_mm;
   // Photographs that entered each quantity, and the reduced chi-square of

@@ -36,6 +36,10 @@ TEST(JointTest, InverseVarianceMeanWhenThePhotographsAgree) {
   EXPECT_NEAR(j->max_slope.stderr_value, std::sqrt(1.0 / 15000.0), 1e-12);  // chi2 < 1
   EXPECT_EQ(j->slope_photographs, 3);
   EXPECT_NEAR(j->peak_spacing_rad.value, 2.0 * std::atan(j->max_slope.value), 1e-12);
+  ASSERT_TRUE(j->max_inclination_rad.resolved);
+  EXPECT_NEAR(j->max_inclination_rad.value, std::atan(j->max_slope.value), 1e-12);
+  EXPECT_NEAR(j->max_inclination_rad.stderr_value,
+              j->max_slope.stderr_value / (1.0 + j->max_slope.value * j->max_slope.value), 1e-15);
   EXPECT_EQ(j->wavelength_photographs, 2);
   EXPECT_NEAR(j->wavelength_mm.value, (2.0 * 625 + 2.02 * 2500) / 3125.0, 1e-12);
   ASSERT_TRUE(j->amplitude_mm.resolved);
@@ -97,6 +101,7 @@ TEST(JointTest, SmoothSamplesHaveNoSlope) {
   EXPECT_EQ(j->model, ProfileModel::kSmooth);
   EXPECT_FALSE(j->max_slope.resolved);
   EXPECT_FALSE(j->peak_spacing_rad.resolved);
+  EXPECT_FALSE(j->max_inclination_rad.resolved);
 }
 
 TEST(JointTest, OnePhotographIsNotAJointEstimate) {

@@ -88,6 +88,7 @@ EstimateOptions OptionsFromProto(const v1::EstimateOptions& proto,
       options.mode = Mode::kBalanced;
       break;
   }
+  options.include_curves = proto.include_curves();
   return options;
 }
 
@@ -97,6 +98,7 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
   reply.set_model(ModelToProto(e.model));
   SetMeasurement(e.peak_spacing_rad, 1.0 / kDeg, reply.mutable_peak_spacing_deg());
   SetMeasurement(e.max_slope, 1.0, reply.mutable_max_slope());
+  SetMeasurement(e.max_inclination_rad, 1.0 / kDeg, reply.mutable_max_inclination_deg());
   SetMeasurement(e.wavelength_mm, 1.0, reply.mutable_wavelength_mm());
   SetMeasurement(e.amplitude_mm, 1.0, reply.mutable_amplitude_mm());
   SetMeasurement(e.specular_azimuth_rad, 1.0 / kDeg,
@@ -137,6 +139,27 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
     SetMeasurement(c.specular_azimuth_rad, 1.0 / kDeg, out->mutable_specular_azimuth_deg());
     out->set_lobe_level(c.lobe_level);
     out->set_grazing_level(c.grazing_level);
+  }
+  if (!e.curves.empty()) {
+    v1::Curve* measured = reply.add_curves();
+    measured->set_label("measured profile");
+    measured->set_model(ModelToProto(e.model));
+    for (int i = 0; i < e.profile.NumBins(); ++i) {
+      if (e.profile.count[i] <= 0) continue;  // no unmasked sample in the bin
+      measured->add_azimuth_deg(e.profile.azimuth_rad[i] / kDeg);
+      measured->add_value(e.profile.mean[i]);
+      measured->add_stderr(e.profile.stderr_mean[i]);
+    }
+    for (const ModelCurve& c : e.curves) {
+      v1::Curve* out = reply.add_curves();
+      out->set_label(c.label);
+      out->set_model(ModelToProto(c.model));
+      out->set_selected(c.selected);
+      for (std::size_t i = 0; i < c.azimuth_rad.size(); ++i) {
+        out->add_azimuth_deg(c.azimuth_rad[i] / kDeg);
+        out->add_value(c.value[i]);
+      }
+    }
   }
   reply.set_sample_name(sample_name);
   reply.set_method(e.method);
@@ -188,6 +211,7 @@ v1::JointEstimate JointToProto(const JointEstimate& joint,
   out.set_model(ModelToProto(joint.model));
   SetMeasurement(joint.peak_spacing_rad, 1.0 / kDeg, out.mutable_peak_spacing_deg());
   SetMeasurement(joint.max_slope, 1.0, out.mutable_max_slope());
+  SetMeasurement(joint.max_inclination_rad, 1.0 / kDeg, out.mutable_max_inclination_deg());
   SetMeasurement(joint.wavelength_mm, 1.0, out.mutable_wavelength_mm());
   SetMeasurement(joint.amplitude_mm, 1.0, out.mutable_amplitude_mm());
   for (const std::string& p : photographs) out.add_photographs(p);

@@ -1,0 +1,521 @@
+#include "client/batch.h"
+
+#include <dirent.h>
+#include <glob.h>
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "client/files.h"
+#include "client/report.h"
+
+namespace weavefit {
+namespace {
+
+bool IsDirectory(const std::string& path) {
+  struct stat s;
+  return stat(path.c_str(), &s) == 0 && S_ISDIR(s.st_mode);
+}
+
+bool IsRegularFile(const std::string& path) {
+  struct stat s;
+  return stat(path.c_str(), &s) == 0 && S_ISREG(s.st_mode);
+}
+
+bool Exists(const std::string& path) {
+  struct stat s;
+  return stat(path.c_str(), &s) == 0;
+}
+
+std::string Join(const std::string& folder, const std::string& name) {
+  if (folder.empty() || folder == ".") return name;
+  return absl::EndsWith(folder, "/") ? folder + name : folder + "/" + name;
+}
+
+// The image files of a folder, sorted by name.
+std::vector<std::string> FolderImages(const std::string& folder) {
+  std::vector<std::string> names;
+  if (DIR* d = opendir(folder.c_str())) {
+    while (const dirent* entry = readdir(d)) {
+      const std::string name = entry->d_name;
+      if (name.empty() || name[0] == '.' || !HasImageExtension(name)) continue;
+      if (IsRegularFile(Join(folder, name))) names.push_back(name);
+    }
+    closedir(d);
+  }
+  std::sort(names.begin(), names.end());
+  std::vector<std::string> paths;
+  for (const std::string& name : names) paths.push_back(Join(folder, name));
+  return paths;
+}
+
+// A CSV record (RFC 4180): its fields, the line it starts on, and whether
+// its line end was read (a record cut off by the end of the text was not).
+struct CsvRecord {
+  std::vector<std::string> fields;
+  int line = 0;
+  bool terminated = false;
+};
+
+std::vector<CsvRecord> ParseCsv(const std::string& text) {
+  std::vector<CsvRecord> records;
+  std::size_t at = absl::StartsWith(text, "\xEF\xBB\xBF") ? 3 : 0;  // UTF-8 BOM
+  int line = 1;
+  while (at < text.size()) {
+    CsvRecord record;
+    record.line = line;
+    std::string field;
+    bool done = false;
+    while (!done) {
+      if (at < text.size() && text[at] == '"') {  // a quoted field
+        ++at;
+        for (;;) {
+          if (at >= text.size()) break;  // cut off inside the quotes
+          const char c = text[at++];
+          if (c == '"') {
+            if (at < text.size() && text[at] == '"') {
+              field += '"';
+              ++at;
+              continue;
+            }
+            break;
+          }
+          if (c == '\n') ++line;
+          field += c;
+        }
+      }
+      // Up to the next comma or line end (the rest of an unquoted field, or
+      // whatever follows a closing quote, kept as it is).
+      while (at < text.size() && text[at] != ',' && text[at] != '\n') field += text[at++];
+      if (at >= text.size()) {
+        record.fields.push_back(field);
+        done = true;
+      } else if (text[at] == ',') {
+        record.fields.push_back(field);
+        field.clear();
+        ++at;
+      } else {  // '\n'
+        if (absl::EndsWith(field, "\r")) field.pop_back();
+        record.fields.push_back(field);
+        record.terminated = true;
+        ++at;
+        ++line;
+        done = true;
+      }
+    }
+    records.push_back(std::move(record));
+  }
+  return records;
+}
+
+bool IsBlank(const CsvRecord& r) {
+  return r.fields.size() == 1 && absl::StripAsciiWhitespace(r.fields[0]).empty();
+}
+
+absl::Status ManifestError(const std::string& name, int line, const std::string& what) {
+  return absl::InvalidArgumentError(absl::StrCat(name, ":", line, ": ", what));
+}
+
+}  // namespace
+
+bool HasImageExtension(const std::string& path) {
+  const std::size_t dot = path.find_last_of('.');
+  const std::size_t slash = path.find_last_of('/');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return false;
+  const std::string ext = absl::AsciiStrToLower(path.substr(dot + 1));
+  return ext == "png" || ext == "tif" || ext == "tiff" || ext == "jpg" || ext == "jpeg" ||
+         ext == "exr";
+}
+
+std::string PathKey(const std::string& path) {
+  std::error_code error;
+  const std::filesystem::path absolute = std::filesystem::absolute(path, error);
+  return (error ? std::filesystem::path(path) : absolute).lexically_normal().string();
+}
+
+absl::StatusOr<std::vector<std::string>> ExpandInputs(const std::vector<std::string>& inputs) {
+  std::vector<std::string> images;
+  auto add = [&](const std::string& image) { images.push_back(image); };
+  for (const std::string& input : inputs) {
+    if (IsDirectory(input)) {
+      const std::vector<std::string> found = FolderImages(input);
+      if (found.empty()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "folder ", input, " holds no images (.png .tif .tiff .jpg .jpeg .exr)"));
+      }
+      for (const std::string& image : found) add(image);
+    } else if (input.find_first_of("*?[") != std::string::npos && !Exists(input)) {
+      glob_t matches{};
+      const int result = glob(input.c_str(), 0, nullptr, &matches);
+      std::vector<std::string> found;
+      for (std::size_t i = 0; result == 0 && i < matches.gl_pathc; ++i) {
+        const std::string path = matches.gl_pathv[i];
+        if (HasImageExtension(path) && IsRegularFile(path)) found.push_back(path);
+      }
+      globfree(&matches);
+      if (found.empty()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("no image matches '", input, "' (.png .tif .tiff .jpg .jpeg .exr)"));
+      }
+      for (const std::string& image : found) add(image);  // glob(3) sorts them
+    } else {
+      add(input);
+    }
+  }
+  return images;
+}
+
+std::vector<std::string> DistinctImages(const std::vector<std::string>& images) {
+  std::vector<std::string> distinct;
+  std::vector<std::string> keys;
+  for (const std::string& image : images) {
+    std::string key = PathKey(image);
+    if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
+    keys.push_back(std::move(key));
+    distinct.push_back(image);
+  }
+  return distinct;
+}
+
+absl::StatusOr<std::vector<ManifestRow>> ParseManifest(const std::string& text,
+                                                       const std::string& folder,
+                                                       const std::string& name) {
+  std::vector<CsvRecord> records = ParseCsv(text);
+  records.erase(std::remove_if(records.begin(), records.end(), IsBlank), records.end());
+  if (records.empty()) {
+    return ManifestError(name, 1, "empty: a header row naming the columns is needed");
+  }
+  enum Column { kPath, kPhase, kDiameter, kDistance, kSample };
+  const std::vector<std::string> known = {"path", "phase_angle_deg", "diameter_mm",
+                                          "distance_mm", "sample_name"};
+  std::vector<int> columns;  // per cell: its Column
+  for (const std::string& cell : records[0].fields) {
+    const std::string column = absl::AsciiStrToLower(absl::StripAsciiWhitespace(cell));
+    const auto it = std::find(known.begin(), known.end(), column);
+    if (it == known.end()) {
+      return ManifestError(name, records[0].line,
+                           absl::StrCat("unknown column '", column, "' (the columns are ",
+                                        absl::StrJoin(known, ", "), ")"));
+    }
+    const int c = static_cast<int>(it - known.begin());
+    if (std::find(columns.begin(), columns.end(), c) != columns.end()) {
+      return ManifestError(name, records[0].line, absl::StrCat("column '", column, "' twice"));
+    }
+    columns.push_back(c);
+  }
+  if (std::find(columns.begin(), columns.end(), kPath) == columns.end()) {
+    return ManifestError(name, records[0].line,
+                         "no 'path' column (the header row names the columns)");
+  }
+  std::vector<ManifestRow> rows;
+  std::vector<std::string> keys;
+  for (std::size_t r = 1; r < records.size(); ++r) {
+    const CsvRecord& record = records[r];
+    if (record.fields.size() != columns.size()) {
+      return ManifestError(name, record.line,
+                           absl::StrCat(record.fields.size(), " cells where the header has ",
+                                        columns.size()));
+    }
+    ManifestRow row;
+    row.line = record.line;
+    for (std::size_t i = 0; i < columns.size(); ++i) {
+      const std::string cell(absl::StripAsciiWhitespace(record.fields[i]));
+      if (columns[i] == kPath) {
+        if (cell.empty()) return ManifestError(name, record.line, "empty path");
+        row.path = absl::StartsWith(cell, "/") ? cell : Join(folder, cell);
+      } else if (columns[i] == kSample) {
+        row.sample_name = cell;
+      } else if (!cell.empty()) {
+        double value = 0.0;
+        if (!absl::SimpleAtod(cell, &value) || !std::isfinite(value)) {
+          return ManifestError(name, record.line,
+                               absl::StrCat(known[columns[i]], " '", cell, "' is not a number"));
+        }
+        (columns[i] == kPhase ? row.phase_angle_deg
+                              : columns[i] == kDiameter ? row.diameter_mm : row.distance_mm) = value;
+      }
+    }
+    std::string key = PathKey(row.path);
+    if (std::find(keys.begin(), keys.end(), key) != keys.end()) {
+      return ManifestError(name, record.line, absl::StrCat(row.path, " is listed twice"));
+    }
+    keys.push_back(std::move(key));
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+absl::StatusOr<std::vector<ManifestRow>> ReadManifest(const std::string& path) {
+  absl::StatusOr<std::string> text = ReadFile(path);
+  if (!text.ok()) return text.status();
+  const std::size_t slash = path.find_last_of('/');
+  return ParseManifest(*text, slash == std::string::npos ? "" : path.substr(0, slash + 1), path);
+}
+
+const ManifestRow* FindRow(const std::vector<ManifestRow>& rows, const std::string& image) {
+  const std::string key = PathKey(image);
+  for (const ManifestRow& row : rows) {
+    if (PathKey(row.path) == key) return &row;
+  }
+  return nullptr;
+}
+
+absl::StatusOr<v1::RequestHeader> HeaderFor(const MetadataFlags& flags, const std::string& image,
+                                            std::size_t index, const ManifestRow* row) {
+  v1::RequestHeader header;
+  v1::Acquisition* acq = header.mutable_acquisition();
+  acq->set_cylinder_diameter_mm(flags.diameter_mm);
+  acq->set_camera_distance_mm(flags.distance_mm);
+  acq->set_pixels_linear(flags.linear);
+  acq->set_saturation_level(flags.saturation_level);
+  std::optional<double> phase;
+  if (!flags.phase_angles_deg.empty()) {
+    const std::size_t n = flags.phase_angles_deg.size();
+    if (n != 1 && index >= n) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--phase-angle gives ", n, " angles: none for image ", index + 1));
+    }
+    phase = flags.phase_angles_deg[n == 1 ? 0 : index];
+  } else if (const auto sidecar = ReadSidecar(image)) {
+    phase = StructNumber(*sidecar, "acquisition", "phaseAngleDeg");
+    if (auto d = StructNumber(*sidecar, "acquisition", "cylinderDiameterMm")) {
+      acq->set_cylinder_diameter_mm(*d);
+    }
+    if (auto d = StructNumber(*sidecar, "acquisition", "cameraDistanceMm")) {
+      acq->set_camera_distance_mm(*d);
+    }
+  }
+  if (row != nullptr) {
+    if (row->phase_angle_deg) phase = row->phase_angle_deg;
+    if (row->diameter_mm) acq->set_cylinder_diameter_mm(*row->diameter_mm);
+    if (row->distance_mm) acq->set_camera_distance_mm(*row->distance_mm);
+  }
+  if (!phase) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no phase angle for ", image, ": give --phase-angle, a manifest row with "
+        "phase_angle_deg, or a sidecar ", SidecarPath(image), " with acquisition.phaseAngleDeg"));
+  }
+  acq->set_phase_angle_deg(*phase);
+  if (flags.mode == "fast") {
+    header.mutable_options()->set_mode(v1::FAST);
+  } else if (flags.mode == "accurate") {
+    header.mutable_options()->set_mode(v1::ACCURATE);
+  } else {
+    header.mutable_options()->set_mode(v1::BALANCED);
+  }
+  const std::size_t slash = image.find_last_of('/');
+  header.set_filename(slash == std::string::npos ? image : image.substr(slash + 1));
+  header.set_sample_name(row != nullptr && !row->sample_name.empty() ? row->sample_name
+                                                                     : header.filename());
+  return header;
+}
+
+ResultsFormat ResultsFormatFor(const std::string& path) {
+  return absl::EndsWithIgnoreCase(path, ".csv") ? ResultsFormat::kCsv : ResultsFormat::kJsonLines;
+}
+
+std::string ResultRecord(ResultsFormat format, const std::string& image,
+                         const v1::EstimateReply& reply) {
+  if (format == ResultsFormat::kCsv) {
+    ReportRow row;
+    row.image = image;
+    row.reply = reply;
+    return CsvRow(row);
+  }
+  google::protobuf::Value path;
+  path.set_string_value(image);
+  std::string quoted;
+  (void)google::protobuf::util::MessageToJsonString(path, &quoted);  // a JSON string
+  return absl::StrCat("{\"image\":", quoted, ",\"reply\":", JsonLine(reply), "}\n");
+}
+
+absl::StatusOr<ResultsFile> ParseResults(const std::string& text, ResultsFormat format,
+                                         const std::string& name) {
+  ResultsFile out;
+  const auto not_ours = [&](int line, const std::string& why) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        name, ":", line, ": ", why,
+        "; weavefit did not write this file (give --out a new file or weavefit's own)"));
+  };
+  if (format == ResultsFormat::kCsv) {
+    const std::vector<CsvRecord> records = ParseCsv(text);
+    const std::vector<std::string> columns = CsvColumns();
+    bool header = false;
+    for (const CsvRecord& r : records) {
+      if (!r.terminated) {
+        out.torn_tail = true;
+        break;
+      }
+      if (IsBlank(r)) continue;
+      if (!header) {
+        if (r.fields != columns) return not_ours(r.line, "not weavefit's CSV header");
+        header = true;
+        continue;
+      }
+      if (r.fields.size() != columns.size() || r.fields[0].empty()) {
+        return not_ours(r.line, absl::StrCat(r.fields.size(), " cells where weavefit writes ",
+                                             columns.size()));
+      }
+      // The record as it was written: re-encoded from its fields, which
+      // gives back the same text for what CsvRow wrote.
+      std::string record;
+      for (std::size_t f = 0; f < r.fields.size(); ++f) {
+        if (f > 0) record += ',';
+        record += CsvField(r.fields[f]);
+      }
+      out.images.push_back(r.fields[0]);
+      out.records.push_back(record + "\n");
+    }
+    return out;
+  }
+  std::size_t at = 0;
+  int line = 0;
+  while (at < text.size()) {
+    ++line;
+    const std::size_t end = text.find('\n', at);
+    if (end == std::string::npos) {
+      out.torn_tail = true;
+      break;
+    }
+    const std::string record = text.substr(at, end - at);
+    at = end + 1;
+    if (absl::StripAsciiWhitespace(record).empty()) continue;
+    google::protobuf::Struct parsed;
+    if (!google::protobuf::util::JsonStringToMessage(record, &parsed).ok()) {
+      return not_ours(line, "not a JSON object");
+    }
+    const auto image = parsed.fields().find("image");
+    const auto reply = parsed.fields().find("reply");
+    if (image == parsed.fields().end() || !image->second.has_string_value() ||
+        image->second.string_value().empty() || reply == parsed.fields().end() ||
+        !reply->second.has_struct_value()) {
+      return not_ours(line, "not a {\"image\": ..., \"reply\": {...}} record");
+    }
+    out.images.push_back(image->second.string_value());
+    out.records.push_back(record + "\n");
+  }
+  return out;
+}
+
+std::vector<bool> AlreadyDone(const std::vector<std::string>& images, const ResultsFile& done,
+                              bool no_skip) {
+  std::vector<bool> skip(images.size(), false);
+  if (no_skip) return skip;
+  std::vector<std::string> keys;
+  for (const std::string& image : done.images) keys.push_back(PathKey(image));
+  std::sort(keys.begin(), keys.end());
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    skip[i] = std::binary_search(keys.begin(), keys.end(), PathKey(images[i]));
+  }
+  return skip;
+}
+
+std::string KeptResults(const ResultsFile& done, ResultsFormat format,
+                        const std::vector<std::string>& redone) {
+  std::vector<std::string> keys;
+  for (const std::string& image : redone) keys.push_back(PathKey(image));
+  std::sort(keys.begin(), keys.end());
+  std::string text = format == ResultsFormat::kCsv ? CsvHeader() : std::string();
+  for (std::size_t i = 0; i < done.records.size(); ++i) {
+    if (!std::binary_search(keys.begin(), keys.end(), PathKey(done.images[i]))) {
+      text += done.records[i];
+    }
+  }
+  return text;
+}
+
+bool IsRetryable(absl::StatusCode code) {
+  return code == absl::StatusCode::kUnavailable || code == absl::StatusCode::kResourceExhausted ||
+         code == absl::StatusCode::kDeadlineExceeded;
+}
+
+double BackoffSeconds(const RetryPolicy& policy, int retry, double uniform01) {
+  const double ceiling =
+      std::min(policy.max_backoff_s,
+               policy.initial_backoff_s * std::pow(policy.multiplier, std::max(0, retry - 1)));
+  return ceiling * (0.5 + 0.5 * std::clamp(uniform01, 0.0, 1.0));
+}
+
+std::vector<ImageOutcome> RunBatch(std::size_t count, int jobs, const RetryPolicy& policy,
+                                   const BatchHooks& hooks) {
+  std::vector<ImageOutcome> outcomes(count);
+  std::mutex mutex;  // guards the generator, on_done and on_retry
+  std::mt19937_64 generator{std::random_device{}()};
+  const auto uniform = [&]() {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (hooks.uniform) return hooks.uniform();
+    return std::uniform_real_distribution<double>(0.0, 1.0)(generator);
+  };
+  const auto sleep = [&](double seconds) {
+    if (hooks.sleep) {
+      hooks.sleep(seconds);
+    } else {
+      std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    }
+  };
+  std::atomic<std::size_t> next{0};
+  const auto work = [&]() {
+    for (std::size_t index = next++; index < count; index = next++) {
+      const auto start = std::chrono::steady_clock::now();
+      ImageOutcome& outcome = outcomes[index];
+      for (int attempt = 1;; ++attempt) {
+        outcome.attempts = attempt;
+        outcome.reply = hooks.estimate(index);
+        if (outcome.reply.ok() || !IsRetryable(outcome.reply.status().code()) ||
+            attempt > policy.max_retries) {
+          break;
+        }
+        const double wait_s = BackoffSeconds(policy, attempt, uniform());
+        if (hooks.on_retry) {
+          std::lock_guard<std::mutex> lock(mutex);
+          hooks.on_retry(index, outcome.reply.status(), attempt, wait_s);
+        }
+        sleep(wait_s);
+      }
+      outcome.seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (hooks.on_done) {
+        std::lock_guard<std::mutex> lock(mutex);
+        hooks.on_done(index, outcome);
+      }
+    }
+  };
+  const std::size_t threads = std::min<std::size_t>(std::max(1, jobs), count);
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+  if (count > 0) work();  // this thread is one of the workers
+  for (std::thread& t : pool) t.join();
+  return outcomes;
+}
+
+std::string ProgressLine(std::size_t done, std::size_t total, std::size_t failed) {
+  return absl::StrCat(done, "/", total, " done, ", failed, " failed");
+}
+
+std::string FailureSummary(const std::vector<std::pair<std::string, absl::Status>>& failures,
+                           std::size_t total) {
+  if (failures.empty()) return "";
+  std::string out = absl::StrCat(failures.size(), " of ", total,
+                                 total == 1 ? " image" : " images", " failed:\n");
+  for (const auto& [image, status] : failures) {
+    absl::StrAppend(&out, "  ", image, ": ", absl::StatusCodeToString(status.code()), ": ",
+                    status.message(), "\n");
+  }
+  return out;
+}
+
+}  // namespace weavefit

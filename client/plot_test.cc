@@ -1,0 +1,69 @@
+// Fit plots from an in-process estimate of a fixture: the reply carries the
+// curves, the PNG is written with the chart and the thumbnail side by side.
+#include "client/plot.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "estimator/pipeline/estimate.h"
+#include "proto/weavefit/v1/convert.h"
+
+namespace weavefit {
+namespace {
+
+std::string Read(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+v1::EstimateReply ReplyFor(const std::string& bytes, double phase_deg, bool curves) {
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = phase_deg * M_PI / 180.0;
+  EstimateOptions options;
+  options.include_curves = curves;
+  absl::StatusOr<Estimate> estimate = EstimateFromBytes(bytes, acquisition, options);
+  EXPECT_TRUE(estimate.ok()) << estimate.status();
+  return estimate.ok() ? ReplyFromEstimate(*estimate, "plot test") : v1::EstimateReply();
+}
+
+TEST(FitPlotTest, CurvesComeOnlyWhenAskedAndLeaveTheEstimateUnchanged) {
+  const std::string bytes = Read(std::string(FIXTURES_DIR) + "/gauze_sinusoid_p10.png");
+  const v1::EstimateReply plain = ReplyFor(bytes, 10.0, false);
+  const v1::EstimateReply with = ReplyFor(bytes, 10.0, true);
+  EXPECT_EQ(plain.curves_size(), 0);
+  ASSERT_GE(with.curves_size(), 4);  // measured, smoothed, three fits
+  EXPECT_EQ(with.curves(0).label(), "measured profile");
+  EXPECT_EQ(with.curves(0).stderr_size(), with.curves(0).value_size());
+  int selected = 0;
+  for (const v1::Curve& c : with.curves()) {
+    EXPECT_EQ(c.azimuth_deg_size(), c.value_size()) << c.label();
+    selected += c.selected();
+  }
+  EXPECT_EQ(selected, 1) << "one fit is the reported model's";
+  EXPECT_EQ(with.peak_spacing_deg().value(), plain.peak_spacing_deg().value());
+  EXPECT_EQ(with.max_slope().value(), plain.max_slope().value());
+}
+
+TEST(FitPlotTest, WritesChartAndThumbnailSideBySide) {
+  const std::string image = std::string(FIXTURES_DIR) + "/gauze_sinusoid_p10.png";
+  const std::string bytes = Read(image);
+  const v1::EstimateReply reply = ReplyFor(bytes, 10.0, true);
+  const std::string out = ::testing::TempDir() + "/fit_plot_test.png";
+  const absl::Status written = WriteFitPlot(reply, bytes, "gauze_sinusoid_p10.png", out);
+  ASSERT_TRUE(written.ok()) << written;
+  const cv::Mat plot = cv::imread(out, cv::IMREAD_COLOR);
+  ASSERT_FALSE(plot.empty());
+  EXPECT_EQ(plot.rows, 760);
+  EXPECT_GT(plot.cols, 1100 + 300) << "chart plus a thumbnail";
+  EXPECT_LE(plot.cols, 1100 + 560 + 16);
+  EXPECT_EQ(WriteFitPlot(ReplyFor(bytes, 10.0, false), bytes, "x", out).code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+}  // namespace
+}  // namespace weavefit
