@@ -53,7 +53,7 @@ class PythonClient(unittest.TestCase):
                 raise RuntimeError("weavefitd did not start:\n" + cls.daemon_log())
             time.sleep(0.05)
         with open(port_file) as f:
-            cls.server = "127.0.0.1:" + f.read().strip()
+            cls.server = "127.0.0.1:" + f.readline().strip()  # first line: the gRPC port
 
     @classmethod
     def stop_daemon(cls):

@@ -25,7 +25,7 @@ for _ in $(seq 1 100); do
   sleep 0.1
 done
 [ -s "$work/port" ] || { echo "demo: weavefitd did not start" >&2; cat "$work/weavefitd.log" >&2; exit 1; }
-port=$(cat "$work/port")
+port=$(head -n 1 "$work/port")
 echo "weavefitd serving on 127.0.0.1:$port"
 echo
 shopt -s nullglob

@@ -75,12 +75,16 @@ int main(int argc, char** argv) {
   app.add_option("--metrics-listen", options.metrics_listen,
                  "host:port for Prometheus metrics at /metrics (off when empty)")
       ->group(operation);
+  app.add_option("--health-listen", options.health_listen,
+                 "host:port of a plaintext port serving only grpc.health.v1, for probes that "
+                 "cannot speak TLS (off when empty)")
+      ->group(operation);
   app.add_option("--shutdown-grace-s", grace_s,
                  "on SIGTERM/SIGINT, time given to calls in flight before they are cancelled, s")
       ->capture_default_str()->check(CLI::NonNegativeNumber)->group(operation);
   app.add_option("--port-file", port_file,
-                 "once serving, write the bound gRPC port (and the metrics port on a second "
-                 "line) to this file")
+                 "once serving, write the bound ports to this file: gRPC, then metrics and "
+                 "health (0 when off), one per line")
       ->group(operation);
   CLI11_PARSE(app, argc, argv);
 
@@ -112,7 +116,7 @@ int main(int argc, char** argv) {
     {
       std::ofstream out(tmp);
       out << (*server)->port() << "\n";
-      if ((*server)->metrics_port() > 0) out << (*server)->metrics_port() << "\n";
+      out << (*server)->metrics_port() << "\n" << (*server)->health_port() << "\n";
     }
     std::rename(tmp.c_str(), port_file.c_str());  // appears complete or not at all
   }

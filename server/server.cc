@@ -74,6 +74,10 @@ absl::Status ServerOptions::Validate() const {
         "refusing to listen on ", listen, " without TLS: give --tls-cert and --tls-key, "
         "or --insecure-remote on a network you trust"));
   }
+  if (!health_listen.empty() && health_listen.find(':') == std::string::npos) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("health listen must be host:port, got '", health_listen, "'"));
+  }
   if (!metrics_listen.empty() && metrics_listen.find(':') == std::string::npos) {
     return absl::InvalidArgumentError(
         absl::StrCat("metrics listen must be host:port, got '", metrics_listen, "'"));
@@ -88,15 +92,26 @@ absl::Status RunningServer::ReloadTokens() {
   return auth_->Reload();
 }
 
+void RunningServer::SetReady(bool ready) {
+  for (grpc::Server* server : {server_.get(), health_server_.get()}) {
+    if (server == nullptr) continue;
+    if (auto* health = server->GetHealthCheckService()) {
+      health->SetServingStatus(kReadinessService, ready);
+    }
+  }
+}
+
 void RunningServer::Shutdown(std::chrono::milliseconds grace) {
   if (shut_down_) return;
   shut_down_ = true;
   draining_ = true;
-  if (auto* health = server_->GetHealthCheckService()) {
-    health->SetServingStatus(kReadinessService, false);
-  }
+  SetReady(false);
   server_->Shutdown(std::chrono::system_clock::now() + grace);
   server_->Wait();
+  if (health_server_) {
+    health_server_->Shutdown(std::chrono::system_clock::now());
+    health_server_->Wait();
+  }
   if (warm_up_.joinable()) warm_up_.join();
 }
 
@@ -142,13 +157,26 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
   if (!running->server_ || running->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("could not listen on ", options.listen));
   }
-  grpc::HealthCheckServiceInterface* health = running->server_->GetHealthCheckService();
-  health->SetServingStatus("", true);                  // liveness
-  health->SetServingStatus(kReadinessService, false);  // readiness, below
+  if (!options.health_listen.empty()) {
+    // Its own server, so that the plaintext port carries nothing but health.
+    grpc::ServerBuilder health_builder;
+    health_builder.AddListeningPort(options.health_listen, grpc::InsecureServerCredentials(),
+                                    &running->health_port_);
+    running->health_server_ = health_builder.BuildAndStart();
+    if (!running->health_server_ || running->health_port_ == 0) {
+      return absl::UnavailableError(
+          absl::StrCat("could not listen on ", options.health_listen, " (health)"));
+    }
+  }
+  for (grpc::Server* server : {running->server_.get(), running->health_server_.get()}) {
+    if (server == nullptr) continue;
+    server->GetHealthCheckService()->SetServingStatus("", true);  // liveness
+  }
+  running->SetReady(false);  // readiness, below
   RunningServer* self = running.get();
-  running->warm_up_ = std::thread([self, health] {
+  running->warm_up_ = std::thread([self] {
     ProfileBank::Default();  // built once, shared by every request
-    if (!self->draining_) health->SetServingStatus(kReadinessService, true);
+    if (!self->draining_) self->SetReady(true);
     LOG(INFO) << "weavefitd ready (FLANN bank built)";
   });
   LOG(INFO) << "weavefitd listening on " << options.listen << " (port " << running->port_
@@ -158,6 +186,10 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
             << "), " << options.service.workers << " workers, queue "
             << options.service.max_queue << ", upload limit " << options.service.max_upload_bytes
             << " bytes, deadline " << options.service.deadline_s << " s";
+  if (running->health_server_) {
+    LOG(INFO) << "health only, plaintext, on " << options.health_listen << " (port "
+              << running->health_port_ << ")";
+  }
   if (running->metrics_endpoint_) {
     LOG(INFO) << "metrics on " << options.metrics_listen << " (port "
               << running->metrics_endpoint_->port() << ") /metrics";

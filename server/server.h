@@ -41,6 +41,10 @@ struct ServerOptions {
   bool reflection = false;
   // host:port of the Prometheus endpoint; empty = off.
   std::string metrics_listen;
+  // host:port of a plaintext port that serves only grpc.health.v1 (liveness
+  // and readiness), for probes that cannot speak TLS (Kubernetes' grpc
+  // probe); empty = off.
+  std::string health_listen;
   ServiceOptions service;
 
   bool tls() const { return !tls_cert.empty(); }
@@ -56,6 +60,7 @@ class RunningServer {
 
   int port() const { return port_; }
   int metrics_port() const { return metrics_endpoint_ ? metrics_endpoint_->port() : 0; }
+  int health_port() const { return health_port_; }
   // Re-reads the token file (SIGHUP); the tokens in force stay on failure.
   absl::Status ReloadTokens();
   // Readiness goes NOT_SERVING, new calls are refused with UNAVAILABLE,
@@ -65,12 +70,16 @@ class RunningServer {
  private:
   friend absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions&);
   RunningServer() = default;
+  // Readiness on the main server and on the health port.
+  void SetReady(bool ready);
 
   std::unique_ptr<Authenticator> auth_;
   std::unique_ptr<Metrics> metrics_;
   std::unique_ptr<MetricsEndpoint> metrics_endpoint_;
   std::unique_ptr<WeaveFitService> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<grpc::Server> health_server_;  // --health-listen
+  int health_port_ = 0;
   std::thread warm_up_;  // builds the FLANN bank, then declares readiness
   std::atomic<bool> draining_{false};
   int port_ = 0;

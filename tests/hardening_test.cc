@@ -79,7 +79,7 @@ TEST(Hardening, HelpListsEveryLimitAndAccessFlag) {
   for (const char* flag :
        {"--max-upload-mb", "--max-megapixels", "--max-chunks", "--max-concurrent", "--max-queue",
         "--deadline-s", "--max-joint-photographs", "--tls-cert", "--tls-key", "--tls-client-ca",
-        "--token-file", "--insecure-remote", "--reflection", "--metrics-listen",
+        "--token-file", "--insecure-remote", "--reflection", "--metrics-listen", "--health-listen",
         "--shutdown-grace-s"}) {
     EXPECT_TRUE(absl::StrContains(help.out, flag)) << flag << " missing from --help";
   }
@@ -128,7 +128,8 @@ TEST(Hardening, MutualTlsAndBearerTokensReloadedOnSighup) {
   WriteFileOrDie(dir + "/first", "first-token\n");
   WriteFileOrDie(dir + "/second", "second-token\n");
   Daemon daemon({"--tls-cert", dir + "/server.pem", "--tls-key", dir + "/server.key",
-                 "--tls-client-ca", dir + "/ca.pem", "--token-file", tokens});
+                 "--tls-client-ca", dir + "/ca.pem", "--token-file", tokens,
+                 "--health-listen", "127.0.0.1:0"});
   ASSERT_TRUE(daemon.running()) << daemon.Log();
   const std::vector<std::string> tls = {"--tls-ca", dir + "/ca.pem", "--tls-cert",
                                         dir + "/client.pem", "--tls-key", dir + "/client.key"};
@@ -144,6 +145,21 @@ TEST(Hardening, MutualTlsAndBearerTokensReloadedOnSighup) {
   ssl.pem_private_key = ReadFileOrDie(dir + "/client.key");
   auto secure = grpc::CreateChannel(daemon.address(), grpc::SslCredentials(ssl));
   ASSERT_TRUE(AwaitReady(secure));
+
+  // The plaintext health port answers probes and serves nothing else.
+  ASSERT_GT(daemon.health_port(), 0);
+  auto probe = grpc::CreateChannel(absl::StrCat("127.0.0.1:", daemon.health_port()),
+                                   grpc::InsecureChannelCredentials());
+  EXPECT_EQ(Health(probe, ""), HealthCheckResponse::SERVING);
+  EXPECT_EQ(Health(probe, "weavefit.v1.WeaveFit"), HealthCheckResponse::SERVING);
+  {
+    auto stub = v1::WeaveFit::NewStub(probe);
+    grpc::ClientContext context;
+    v1::EstimateReply reply;
+    auto writer = stub->Estimate(&context, &reply);
+    writer->WritesDone();
+    EXPECT_EQ(writer->Finish().error_code(), grpc::StatusCode::UNIMPLEMENTED);
+  }
 
   const CommandResult ok = Submit(daemon, with({"--token-file", dir + "/first"}));
   EXPECT_EQ(ok.exit_code, 0) << ok.err;

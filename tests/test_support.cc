@@ -174,7 +174,7 @@ Daemon::Daemon(const std::vector<std::string>& extra_flags) {
   while (pid_ > 0 && std::chrono::steady_clock::now() < deadline) {
     std::ifstream in(port_file);
     if (in >> port_) {
-      in >> metrics_port_;  // the second line, when metrics are served
+      in >> metrics_port_ >> health_port_;  // 0 when off
       break;
     }
     if (!running()) break;

@@ -55,6 +55,8 @@ class Daemon {
   int port() const { return port_; }
   // The Prometheus port when --metrics-listen was given, else 0.
   int metrics_port() const { return metrics_port_; }
+  // The plaintext health port when --health-listen was given, else 0.
+  int health_port() const { return health_port_; }
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
   // The daemon's own temporary folder (its port file and log live there).
   const std::string& dir() const { return dir_; }
@@ -69,6 +71,7 @@ class Daemon {
   pid_t pid_ = -1;
   int port_ = 0;
   int metrics_port_ = 0;
+  int health_port_ = 0;
   std::string dir_;
 };
 
