@@ -238,7 +238,8 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
   cv::Mat both;
   cv::hconcat(left, right, both);
   const std::string tmp = png_path + ".tmp.png";
-  if (!cv::imwrite(tmp, both) || std::rename(tmp.c_str(), png_path.c_str()) != 0) {
+  if (!cv::imwrite(tmp, both, {cv::IMWRITE_PNG_COMPRESSION, 9}) ||
+      std::rename(tmp.c_str(), png_path.c_str()) != 0) {
     std::remove(tmp.c_str());
     return absl::InternalError(absl::StrCat("cannot write ", png_path));
   }
