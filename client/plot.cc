@@ -113,9 +113,13 @@ absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
 absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& image_bytes,
                           const std::string& title, const std::string& png_path) {
   const v1::Curve* measured = Find(reply, "measured profile");
-  if (measured == nullptr || measured->azimuth_deg_size() == 0) {
+  if (measured == nullptr || measured->azimuth_deg_size() == 0 || measured->value_size() == 0 ||
+      measured->stderr_size() == 0) {
     return absl::FailedPreconditionError("the reply carries no curves (ask with include_curves)");
   }
+  // The reply's arrays are trusted only as far as they agree in length.
+  const int measured_bins = std::min({measured->azimuth_deg_size(), measured->value_size(),
+                                      measured->stderr_size()});
   char dir_template[] = "/tmp/weavefit_plot_XXXXXX";
   if (mkdtemp(dir_template) == nullptr) return absl::InternalError("no temporary folder");
   const std::string dir = dir_template;
@@ -128,7 +132,7 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
   // the measured profile about the selected model's fit.
   {
     std::ofstream out(dir + "/measured.dat");
-    for (int i = 0; i < measured->azimuth_deg_size(); ++i) {
+    for (int i = 0; i < measured_bins; ++i) {
       out << measured->azimuth_deg(i) << " " << measured->value(i) << " " << measured->stderr(i)
           << "\n";
     }
@@ -140,11 +144,12 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
     if (&c == measured) continue;
     const std::string file = absl::StrCat(dir, "/curve", index++, ".dat");
     std::ofstream out(file);
-    for (int i = 0; i < c.azimuth_deg_size(); ++i) out << c.azimuth_deg(i) << " " << c.value(i) << "\n";
+    const int points = std::min(c.azimuth_deg_size(), c.value_size());
+    for (int i = 0; i < points; ++i) out << c.azimuth_deg(i) << " " << c.value(i) << "\n";
     const bool smoothed = c.label() == "smoothed profile";
     const bool selected = c.selected() && !smoothed;
     if (selected) {
-      for (int i = 0; i < c.azimuth_deg_size(); ++i) fit_at[c.azimuth_deg(i)] = c.value(i);
+      for (int i = 0; i < points; ++i) fit_at[c.azimuth_deg(i)] = c.value(i);
     }
     plots.push_back(absl::StrCat(
         Quoted(file), " using 1:2 with lines ",
@@ -155,7 +160,7 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
   }
   {
     std::ofstream out(dir + "/residual.dat");
-    for (int i = 0; i < measured->azimuth_deg_size(); ++i) {
+    for (int i = 0; i < measured_bins; ++i) {
       const auto f = fit_at.find(measured->azimuth_deg(i));
       if (f == fit_at.end()) continue;
       out << measured->azimuth_deg(i) << " " << measured->value(i) - f->second << " "
@@ -187,7 +192,7 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
   }
   // The x range: where the measured profile is, within ±90°.
   const double lo = std::max(-90.0, measured->azimuth_deg(0));
-  const double hi = std::min(90.0, measured->azimuth_deg(measured->azimuth_deg_size() - 1));
+  const double hi = std::min(90.0, measured->azimuth_deg(measured_bins - 1));
   const std::string chart = dir + "/chart.png";
   const std::string script = absl::StrCat(
       "set terminal pngcairo noenhanced size ", kChartWidth, ",", kChartHeight,
@@ -237,7 +242,9 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
   }
   cv::Mat both;
   cv::hconcat(left, right, both);
-  const std::string tmp = png_path + ".tmp.png";
+  // A name of this process and folder: concurrent plots never share it.
+  const std::string tmp = absl::StrCat(png_path, ".", getpid(), ".",
+                                       dir.substr(dir.find_last_of('_') + 1), ".tmp.png");
   if (!cv::imwrite(tmp, both, {cv::IMWRITE_PNG_COMPRESSION, 9}) ||
       std::rename(tmp.c_str(), png_path.c_str()) != 0) {
     std::remove(tmp.c_str());

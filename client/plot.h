@@ -24,12 +24,13 @@ absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
 
 // Writes the fit plot of `reply` (which must carry curves: ask with
 // EstimateOptions.include_curves) to `png_path`, via gnuplot for the chart and
-// OpenCV for the thumbnail beside it. FAILED_PRECONDITION without curves,
-// UNAVAILABLE when gnuplot fails. The file appears complete or not at all.
+// OpenCV for the thumbnail beside it. FAILED_PRECONDITION without curves or
+// when gnuplot fails. The file appears complete or not at all.
 absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& image_bytes,
                           const std::string& title, const std::string& png_path);
 
-// Where PlotInto puts the plot of `image`: DIR/<the image's file stem>.png.
+// Where PlotInto puts the plot of `image`: DIR/<the image's file stem>.png
+// (two images with one stem share it: the later plot replaces the earlier).
 std::string PlotPath(const std::string& dir, const std::string& image);
 
 // The plot of one photograph for `weavefit estimate/submit --plot DIR`: makes

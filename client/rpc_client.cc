@@ -210,7 +210,8 @@ absl::Status Connection::LoadToken(const std::string& token_file) {
 
 absl::StatusOr<std::shared_ptr<grpc::Channel>> MakeChannel(const Connection& connection) {
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
-  if (!connection.tls_ca.empty() || !connection.tls_cert.empty()) {
+  if (!connection.tls_ca.empty() || !connection.tls_cert.empty() ||
+      !connection.tls_key.empty()) {
     grpc::SslCredentialsOptions ssl;
     if (!connection.tls_ca.empty()) {
       absl::StatusOr<std::string> ca = ReadText(connection.tls_ca, "TLS CA");

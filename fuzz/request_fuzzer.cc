@@ -2,9 +2,10 @@
 // messages through an in-process gRPC channel (the same service object the
 // daemon runs, with small limits so one input stays quick).
 //
-// Input layout: byte 0 picks the call (bit 0: Estimate or EstimateJoint) and
+// Input layout: byte 0 picks the call (bit 0: Estimate or EstimateJoint),
 // whether the authorization header carries the right token or a fuzzed one
-// (bit 1; the fuzzed one from the input's last 16 bytes); then records of [2-byte little-endian length][bytes], each
+// (bit 1; the fuzzed one from the input's last 16 bytes) and whether it is
+// sent at all (bit 2 set: none); then records of [2-byte little-endian length][bytes], each
 // parsed as a weavefit.v1.EstimateRequest (records that do not parse are sent
 // as a chunk, so raw image bytes reach the decoder too). The service must
 // answer every call with a status and never crash or report a sanitizer error.
@@ -13,6 +14,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <unistd.h>
+
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -35,14 +38,19 @@ struct Harness {
     options.deadline_s = 10.0;
     options.max_joint_photographs = 4;
     options.estimate.max_pixels = 1 << 20;
-    const std::string tokens = "/tmp/weavefit_fuzz_tokens";
-    if (FILE* f = std::fopen(tokens.c_str(), "w")) {
-      std::fputs("fuzz-token\n", f);
-      std::fclose(f);
+    // A file of this process's own: several fuzzer processes may run at once.
+    char tokens_template[] = "/tmp/weavefit_fuzz_tokens_XXXXXX";
+    const int fd = mkstemp(tokens_template);
+    if (fd >= 0) {
+      const char kToken[] = "fuzz-token\n";
+      (void)!write(fd, kToken, sizeof(kToken) - 1);
+      close(fd);
     }
+    const std::string tokens = tokens_template;
     // Calls without the header are refused before reading; with it, the
     // handler reads everything. Both paths are exercised.
     auth = *weavefit::Authenticator::FromFile(tokens);
+    std::remove(tokens.c_str());
     service = std::make_unique<weavefit::WeaveFitService>(options, auth.get(), &metrics);
     grpc::ServerBuilder builder;
     builder.RegisterService(service.get());
@@ -90,6 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // Most inputs carry the right token so that the handler reads them; a few
   // carry a fuzzed one.
   const bool fuzzed_token = data[0] & 2;
+  const bool authorised = (data[0] & 4) == 0;  // bit 2: no authorization header at all
   // A fuzzed token is mapped onto printable ASCII: gRPC's client refuses
   // (asserts on) other header bytes before they could reach a daemon.
   std::string token = "fuzz-token";
@@ -102,12 +111,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto& stub = *harness->stub;
   if (joint) {
     RunCall<weavefit::v1::JointEstimateReply>(
-        data, size, true, token, [&stub](grpc::ClientContext* c, weavefit::v1::JointEstimateReply* r) {
+        data, size, authorised, token,
+        [&stub](grpc::ClientContext* c, weavefit::v1::JointEstimateReply* r) {
           return stub.EstimateJoint(c, r);
         });
   } else {
     RunCall<weavefit::v1::EstimateReply>(
-        data, size, true, token, [&stub](grpc::ClientContext* c, weavefit::v1::EstimateReply* r) {
+        data, size, authorised, token,
+        [&stub](grpc::ClientContext* c, weavefit::v1::EstimateReply* r) {
           return stub.Estimate(c, r);
         });
   }

@@ -1,7 +1,8 @@
 // Admission control for weavefitd: at most `max_running` estimates at once and
 // at most `max_queued` more admitted and waiting (each holding its upload in
 // memory). A call beyond both is refused at once with RESOURCE_EXHAUSTED, so
-// memory stays bounded by (max_running + max_queued) uploads whatever the load.
+// memory stays bounded by (max_running + max_queued) calls' uploads (each at
+// most ServiceOptions::max_call_bytes) whatever the load.
 #ifndef WEAVEFIT_SERVER_ADMISSION_H_
 #define WEAVEFIT_SERVER_ADMISSION_H_
 

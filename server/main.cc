@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   weavefit::ServerOptions options;
   weavefit::ServiceOptions& service = options.service;
   double max_upload_mb = 64.0;
+  double max_call_mb = 256.0;
   double max_megapixels = 64.0;
   double grace_s = 30.0;
   std::string port_file;
@@ -33,12 +34,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   auto* limits = "Limits (checked before the work they protect)";
   app.add_option("--max-upload-mb", max_upload_mb, "largest accepted upload per photograph, MiB")
-      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+      ->capture_default_str()->check(CLI::Range(0.001, 65536.0))->group(limits);
+  app.add_option("--max-call-mb", max_call_mb,
+                 "largest total upload of one call (an EstimateJoint carries several), MiB")
+      ->capture_default_str()->check(CLI::Range(0.001, 1048576.0))->group(limits);
   app.add_option("--max-megapixels", max_megapixels,
                  "largest decoded image, megapixels (read from the file's header before decoding)")
-      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+      ->capture_default_str()->check(CLI::Range(0.001, 100000.0))->group(limits);
   app.add_option("--max-chunks", service.max_chunks, "most chunk messages in one call")
-      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+      ->capture_default_str()->check(CLI::Range(1, 100000000))->group(limits);
   app.add_option("--max-concurrent,--workers", service.workers,
                  "estimates that run at once (default: one per core)")
       ->capture_default_str()->check(CLI::Range(1, 256))->group(limits);
@@ -48,7 +52,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::Range(0, 4096))->group(limits);
   app.add_option("--deadline-s", service.deadline_s,
                  "longest a call may take, upload included, s (a client's shorter deadline wins)")
-      ->capture_default_str()->check(CLI::PositiveNumber)->group(limits);
+      ->capture_default_str()->check(CLI::Range(0.001, 86400.0))->group(limits);
   app.add_option("--max-joint-photographs", service.max_joint_photographs,
                  "most photographs in one EstimateJoint call")
       ->capture_default_str()->check(CLI::Range(1, 256))->group(limits);
@@ -81,7 +85,7 @@ int main(int argc, char** argv) {
       ->group(operation);
   app.add_option("--shutdown-grace-s", grace_s,
                  "on SIGTERM/SIGINT, time given to calls in flight before they are cancelled, s")
-      ->capture_default_str()->check(CLI::NonNegativeNumber)->group(operation);
+      ->capture_default_str()->check(CLI::Range(0.0, 3600.0))->group(operation);
   app.add_option("--port-file", port_file,
                  "once serving, write the bound ports to this file: gRPC, then metrics and "
                  "health (0 when off), one per line")
@@ -91,6 +95,8 @@ int main(int argc, char** argv) {
   FLAGS_logtostderr = true;
   google::InitGoogleLogging(argv[0]);
   service.max_upload_bytes = static_cast<std::int64_t>(max_upload_mb * (1 << 20));
+  service.max_call_bytes = std::max(service.max_upload_bytes,
+                                    static_cast<std::int64_t>(max_call_mb * (1 << 20)));
   service.estimate.max_pixels = static_cast<std::int64_t>(max_megapixels * 1e6);
   if (!options.token_file.empty() && !options.tls() &&
       !weavefit::IsLoopbackAddress(options.listen)) {

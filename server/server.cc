@@ -1,5 +1,6 @@
 #include "server/server.h"
 
+#include <arpa/inet.h>
 #include <glog/logging.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
@@ -55,7 +56,12 @@ bool IsLoopbackAddress(const std::string& host_port) {
   if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
     host = host.substr(1, host.size() - 2);
   }
-  return host == "localhost" || host == "::1" || absl::StartsWith(host, "127.");
+  if (host == "localhost") return true;
+  // Numeric addresses only: a name such as 127.example.org may resolve anywhere.
+  in_addr v4{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  return inet_pton(AF_INET6, host.c_str(), &v6) == 1 && IN6_IS_ADDR_LOOPBACK(&v6);
 }
 
 absl::Status ServerOptions::Validate() const {
@@ -85,7 +91,11 @@ absl::Status ServerOptions::Validate() const {
   return service.Validate();
 }
 
-RunningServer::~RunningServer() { Shutdown(std::chrono::milliseconds(0)); }
+RunningServer::~RunningServer() {
+  Shutdown(std::chrono::milliseconds(0));
+  // The metrics endpoint reads the service's queue depth: stop it first.
+  metrics_endpoint_.reset();
+}
 
 absl::Status RunningServer::ReloadTokens() {
   if (!auth_ || !auth_->enabled()) return absl::OkStatus();
@@ -93,6 +103,8 @@ absl::Status RunningServer::ReloadTokens() {
 }
 
 void RunningServer::SetReady(bool ready) {
+  std::lock_guard<std::mutex> lock(readiness_mutex_);
+  if (ready && draining_) return;  // warm-up finishing after a drain began
   for (grpc::Server* server : {server_.get(), health_server_.get()}) {
     if (server == nullptr) continue;
     if (auto* health = server->GetHealthCheckService()) {
@@ -104,10 +116,15 @@ void RunningServer::SetReady(bool ready) {
 void RunningServer::Shutdown(std::chrono::milliseconds grace) {
   if (shut_down_) return;
   shut_down_ = true;
-  draining_ = true;
+  {
+    std::lock_guard<std::mutex> lock(readiness_mutex_);
+    draining_ = true;
+  }
   SetReady(false);
-  server_->Shutdown(std::chrono::system_clock::now() + grace);
-  server_->Wait();
+  if (server_) {  // null when StartServer failed before it was built
+    server_->Shutdown(std::chrono::system_clock::now() + grace);
+    server_->Wait();
+  }
   if (health_server_) {
     health_server_->Shutdown(std::chrono::system_clock::now());
     health_server_->Wait();
@@ -138,6 +155,20 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
       options.service, running->auth_.get(), running->metrics_.get());
 
   grpc::EnableDefaultHealthCheckService(true);
+  if (!options.health_listen.empty()) {
+    // Its own server, so that the plaintext port carries nothing but health;
+    // built before the reflection plugin is registered, which every builder
+    // made afterwards would pick up.
+    grpc::ServerBuilder health_builder;
+    health_builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+    health_builder.AddListeningPort(options.health_listen, grpc::InsecureServerCredentials(),
+                                    &running->health_port_);
+    running->health_server_ = health_builder.BuildAndStart();
+    if (!running->health_server_ || running->health_port_ == 0) {
+      return absl::UnavailableError(
+          absl::StrCat("could not listen on ", options.health_listen, " (health)"));
+    }
+  }
   const bool reflection = options.reflection || IsLoopbackAddress(options.listen);
   // Debian's gRPC 1.51 serves grpc.reflection.v1alpha; the plugin must be
   // initialised explicitly before the builder is made (and only then).
@@ -148,6 +179,9 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
   // A chunk is at most 1 MiB; leave room for the envelope.
   builder.SetMaxReceiveMessageSize(
       static_cast<int>(options.service.max_chunk_bytes + (64 << 10)));
+  // A port another process holds is an error, not a port to share
+  // (gRPC sets SO_REUSEPORT by default).
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
                              kServerMinPingIntervalMs);
   builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
@@ -157,17 +191,6 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
   if (!running->server_ || running->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("could not listen on ", options.listen));
   }
-  if (!options.health_listen.empty()) {
-    // Its own server, so that the plaintext port carries nothing but health.
-    grpc::ServerBuilder health_builder;
-    health_builder.AddListeningPort(options.health_listen, grpc::InsecureServerCredentials(),
-                                    &running->health_port_);
-    running->health_server_ = health_builder.BuildAndStart();
-    if (!running->health_server_ || running->health_port_ == 0) {
-      return absl::UnavailableError(
-          absl::StrCat("could not listen on ", options.health_listen, " (health)"));
-    }
-  }
   for (grpc::Server* server : {running->server_.get(), running->health_server_.get()}) {
     if (server == nullptr) continue;
     server->GetHealthCheckService()->SetServingStatus("", true);  // liveness
@@ -176,7 +199,7 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
   RunningServer* self = running.get();
   running->warm_up_ = std::thread([self] {
     ProfileBank::Default();  // built once, shared by every request
-    if (!self->draining_) self->SetReady(true);
+    self->SetReady(true);  // not once draining has begun
     LOG(INFO) << "weavefitd ready (FLANN bank built)";
   });
   LOG(INFO) << "weavefitd listening on " << options.listen << " (port " << running->port_

@@ -3,7 +3,7 @@
 #ifndef WEAVEFIT_SERVER_SERVER_H_
 #define WEAVEFIT_SERVER_SERVER_H_
 
-#include <atomic>
+#include <mutex>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -81,7 +81,8 @@ class RunningServer {
   std::unique_ptr<grpc::Server> health_server_;  // --health-listen
   int health_port_ = 0;
   std::thread warm_up_;  // builds the FLANN bank, then declares readiness
-  std::atomic<bool> draining_{false};
+  std::mutex readiness_mutex_;  // orders draining_ with SetReady
+  bool draining_ = false;
   int port_ = 0;
   bool shut_down_ = false;
 };

@@ -2,6 +2,8 @@
 
 #include <glog/logging.h>
 
+#include <algorithm>
+
 
 
 #include "absl/strings/str_cat.h"
@@ -23,6 +25,9 @@ absl::Status ServiceOptions::Validate() const {
   }
   if (max_chunk_bytes <= 0) {
     return absl::InvalidArgumentError("max_chunk_bytes must be > 0");
+  }
+  if (max_call_bytes < max_upload_bytes) {
+    return absl::InvalidArgumentError("max_call_bytes must be >= max_upload_bytes");
   }
   if (max_chunks < 1) return absl::InvalidArgumentError("max_chunks must be >= 1");
   if (workers < 1) return absl::InvalidArgumentError("workers must be >= 1");
@@ -88,6 +93,7 @@ absl::Status WeaveFitService::ReadUploads(grpc::ServerContext* context,
   Watchdog::Guard guard(&watchdog_, call->deadline, [context] { context->TryCancel(); });
   v1::EstimateRequest message;
   std::int64_t chunks = 0;
+  std::int64_t call_bytes = 0;
   while (reader->Read(&message)) {
     if (message.has_header()) {
       if (!uploads->empty()) {
@@ -108,9 +114,10 @@ absl::Status WeaveFitService::ReadUploads(grpc::ServerContext* context,
             options_.max_upload_bytes, " bytes"));
       }
       uploads->push_back({message.header(), std::string()});
-      if (message.header().total_bytes() > 0) {
-        uploads->back().bytes.reserve(message.header().total_bytes());
-      }
+      // Room for what the header announces, but never more than a few chunks
+      // on the strength of one small message.
+      uploads->back().bytes.reserve(static_cast<std::size_t>(std::min<std::uint64_t>(
+          message.header().total_bytes(), 4 * options_.max_chunk_bytes)));
       continue;
     }
     if (uploads->empty()) {
@@ -130,10 +137,18 @@ absl::Status WeaveFitService::ReadUploads(grpc::ServerContext* context,
       return absl::ResourceExhaustedError(absl::StrCat(
           "upload exceeds the limit of ", options_.max_upload_bytes, " bytes"));
     }
+    call_bytes += static_cast<std::int64_t>(chunk.size());
+    if (call_bytes > options_.max_call_bytes) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "the photographs of one call exceed the limit of ", options_.max_call_bytes, " bytes"));
+    }
     bytes.append(chunk);
   }
   if (guard.expired()) {
-    return absl::DeadlineExceededError("the upload did not complete before the call's deadline");
+    // The watchdog cancelled the call, so CANCELLED is what the client sees;
+    // the log and the metrics say the same, with the reason.
+    return absl::CancelledError(
+        "the upload did not complete before the call's deadline (--deadline-s): cut off");
   }
   if (context->IsCancelled()) return absl::CancelledError("the client went away mid-upload");
   if (uploads->empty()) {

@@ -22,6 +22,7 @@ namespace weavefit {
 
 struct ServiceOptions {
   std::int64_t max_upload_bytes = 64LL << 20;  // encoded image, one photograph
+  std::int64_t max_call_bytes = 256LL << 20;   // all photographs of one call together
   std::int64_t max_chunk_bytes = 1LL << 20;    // one chunk message
   std::int64_t max_chunks = 16384;             // chunk messages per call
   int workers = 2;                             // estimates that run at once

@@ -68,12 +68,13 @@ v1::EstimateRequest Header(double phase_deg, v1::Mode mode = v1::BALANCED) {
 // One call with the image cut into chunks of the given sizes (repeated
 // cyclically); the reply without its wall times, or the status.
 absl::StatusOr<std::string> EstimateInChunks(v1::WeaveFit::Stub& stub, const std::string& image,
-                                             const std::vector<std::size_t>& sizes) {
+                                             const std::vector<std::size_t>& sizes,
+                                             v1::Mode mode = v1::BALANCED) {
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
   v1::EstimateReply reply;
   auto writer = stub.Estimate(&context, &reply);
-  bool open = writer->Write(Header(10.0));
+  bool open = writer->Write(Header(10.0, mode));
   v1::EstimateRequest chunk;
   for (std::size_t at = 0, k = 0; open && at < image.size(); ++k) {
     const std::size_t n = std::min(sizes[k % sizes.size()], image.size() - at);
@@ -233,7 +234,7 @@ TEST(Faults, SigtermExitsWithinTheGracePeriod) {
     } else if (std::string(situation) == "fit running") {
       // Accurate-mode estimates back to back, so one is always running.
       fits = std::thread([&] {
-        while (!stop) (void)EstimateInChunks(*stub, big, {1 << 20});
+        while (!stop) (void)EstimateInChunks(*stub, big, {1 << 20}, v1::ACCURATE);
       });
       std::this_thread::sleep_for(std::chrono::milliseconds(300));
     } else {

@@ -78,7 +78,7 @@ TEST(Hardening, HelpListsEveryLimitAndAccessFlag) {
   EXPECT_EQ(help.exit_code, 0);
   for (const char* flag :
        {"--max-upload-mb", "--max-megapixels", "--max-chunks", "--max-concurrent", "--max-queue",
-        "--deadline-s", "--max-joint-photographs", "--tls-cert", "--tls-key", "--tls-client-ca",
+        "--deadline-s", "--max-joint-photographs", "--max-call-mb", "--tls-cert", "--tls-key", "--tls-client-ca",
         "--token-file", "--insecure-remote", "--reflection", "--metrics-listen", "--health-listen",
         "--shutdown-grace-s"}) {
     EXPECT_TRUE(absl::StrContains(help.out, flag)) << flag << " missing from --help";
@@ -92,6 +92,24 @@ TEST(Hardening, APlaintextNonLoopbackAddressIsRefusedUnlessInsecureRemote) {
   Daemon allowed({"--listen", "0.0.0.0:0", "--insecure-remote"});
   EXPECT_TRUE(allowed.running());
   EXPECT_GT(allowed.port(), 0);
+}
+
+// Startup failures are reported and exit 1; none may crash the daemon.
+TEST(Hardening, StartupFailuresExitWithTheirReason) {
+  const std::string dir = MakeTempDir();
+  WriteFileOrDie(dir + "/empty_tokens", "# nothing but a comment\n");
+  const CommandResult no_token = RunCommand({WEAVEFITD_PATH, "--listen", "127.0.0.1:0",
+                                             "--token-file", dir + "/empty_tokens"});
+  EXPECT_EQ(no_token.exit_code, 1) << no_token.err;
+  EXPECT_TRUE(absl::StrContains(no_token.err, "holds no token")) << no_token.err;
+  Daemon holder;
+  const CommandResult busy = RunCommand({WEAVEFITD_PATH, "--listen", holder.address()});
+  EXPECT_EQ(busy.exit_code, 1) << busy.err;
+  EXPECT_TRUE(absl::StrContains(busy.err, "could not listen")) << busy.err;
+  const CommandResult busy_metrics =
+      RunCommand({WEAVEFITD_PATH, "--listen", "127.0.0.1:0", "--metrics-listen",
+                  holder.address()});
+  EXPECT_EQ(busy_metrics.exit_code, 1) << busy_metrics.err;
 }
 
 TEST(Hardening, LivenessAtOnceReadinessOnceTheBankIsBuiltAndMetricsCountCalls) {
