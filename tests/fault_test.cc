@@ -33,6 +33,19 @@ namespace weavefit::testing {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// The sanitize preset builds the daemon and this test with AddressSanitizer.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kUnderAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kUnderAddressSanitizer = true;
+#else
+constexpr bool kUnderAddressSanitizer = false;
+#endif
+#else
+constexpr bool kUnderAddressSanitizer = false;
+#endif
 const std::string kFixtures = FIXTURES_DIR;
 
 std::shared_ptr<grpc::Channel> ChannelTo(const std::string& address) {
@@ -251,7 +264,11 @@ TEST(Faults, SigtermExitsWithinTheGracePeriod) {
       (void)writer->Finish();
     }
     EXPECT_EQ(exit_code, 0);
-    EXPECT_LT(took, kGrace + 1.0);
+    // A call past the grace period is cancelled, and its estimate stops at the
+    // next stage boundary: the bound holds while one stage takes well under a
+    // second (about 0.3 s at most here), not under AddressSanitizer, which
+    // makes an accurate-mode stage several seconds long.
+    EXPECT_LT(took, kGrace + (kUnderAddressSanitizer ? 10.0 : 1.0));
   }
 }
 
