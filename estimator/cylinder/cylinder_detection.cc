@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "absl/status/status.h"
 #include "estimator/cylinder/terminator.h"
 #include "estimator/stats/median.h"
@@ -233,8 +235,10 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
                                    options.background_fraction * region.width)));
   const int row_step = std::max(1, region.height / 256);
   std::vector<double> samples;
+  // At most about 32 columns per side and row (every one on small images).
+  const int column_step = std::max(1, side / 32);
   for (int y = region.y; y < region.y + region.height; y += row_step) {
-    for (int i = 0; i < side; ++i) {
+    for (int i = 0; i < side; i += column_step) {
       samples.push_back(luminance.At(region.x + i, y));
       samples.push_back(luminance.At(region.x + region.width - 1 - i, y));
     }
@@ -268,7 +272,9 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     int band_rows = 0;
     for (int y = y0; y < y1; y += stride) {
       const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width + region.x];
-      for (int x = 0; x < region.width; ++x) profile[x] += row[x];
+      // OpenCV's vectorised float-into-double accumulation.
+      cv::accumulate(cv::Mat(1, region.width, CV_32F, const_cast<float*>(row)),
+                     cv::Mat(1, region.width, CV_64F, profile.data()));
       ++band_rows;
     }
     for (int x = 0; x < region.width; ++x) mean_profile[x] += profile[x];
@@ -283,13 +289,16 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     // comes from the unsmoothed profile below.
     constexpr int kBox = 5;
     std::vector<double> smoothed(region.width, 0.0);
-    for (int x = 0; x < region.width; ++x) {
-      int count = 0;
-      for (int k = std::max(0, x - kBox / 2); k <= std::min(region.width - 1, x + kBox / 2); ++k) {
-        smoothed[x] += profile[k];
-        ++count;
+    {
+      // A running sum over the box, truncated at the region's ends.
+      double sum = 0.0;
+      for (int k = 0; k < std::min(kBox / 2, region.width); ++k) sum += profile[k];
+      for (int x = 0; x < region.width; ++x) {
+        if (x + kBox / 2 < region.width) sum += profile[x + kBox / 2];
+        if (x - kBox / 2 - 1 >= 0) sum -= profile[x - kBox / 2 - 1];
+        const int count = std::min(region.width - 1, x + kBox / 2) - std::max(0, x - kBox / 2) + 1;
+        smoothed[x] = sum / count;
       }
-      smoothed[x] /= count;
     }
     // A limb is a step away from the background level, up (a lit or grey
     // body on black) or down (a dark cloth on a brighter background).

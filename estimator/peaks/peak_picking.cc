@@ -147,7 +147,10 @@ double SmoothedSinusoidSpacing(double max_slope, double sigma_rad,
   for (int i = 1; i <= mid; ++i) if (f[i] > f[left]) left = i;
   int right = n - 1;
   for (int i = n - 2; i >= mid; --i) if (f[i] > f[right]) right = i;
-  return (right - left) * step;
+  // Sub-step positions by a parabola through each maximum and its
+  // neighbours: without them the spacing moves in whole steps and the
+  // inversion below cannot settle.
+  return (RefineMaximum(f, right) - RefineMaximum(f, left)) * step;
 }
 
 // The max slope whose smoothed sinusoid lobe shows `spacing_rad` between its

@@ -45,6 +45,10 @@ struct ProfileOptions {
   double bin_width_deg = 0.25;       // azimuth bin width
   int num_blocks = 32;               // row blocks for the standard errors
   double max_abs_azimuth_deg = 86.0; // bins beyond are dropped (limb pixels)
+  // At most this many usable rows are read, evenly spaced (0: every row).
+  // A quick look needs far fewer than a 12 Mpx photograph has: the counts
+  // and standard errors are those of the rows read.
+  int max_rows = 0;
 
   absl::Status Validate() const;
 };
