@@ -185,6 +185,46 @@ TEST(ProfileExtractionTest, CountsAndBlockSumsAreConsistent) {
   }
 }
 
+TEST(ProfileExtractionTest, MaxRowsReadsEvenlySpacedRowsOnly) {
+  const CylinderGeometry g = TiltedGeometry();
+  const Projection projection;
+  const Image image = SyntheticImage(g, projection);
+  ProfileOptions all = Options(1.0);
+  ProfileOptions some = all;
+  some.max_rows = 40;  // of 160: every 4th row
+  absl::StatusOr<Profile> full = ExtractProfile(image, g, projection, all);
+  absl::StatusOr<Profile> part = ExtractProfile(image, g, projection, some);
+  ASSERT_TRUE(full.ok()) << full.status();
+  ASSERT_TRUE(part.ok()) << part.status();
+  ASSERT_EQ(part->NumBins(), full->NumBins());
+  double full_count = 0.0;
+  double part_count = 0.0;
+  for (int i = 0; i < full->NumBins(); ++i) {
+    full_count += full->count[i];
+    part_count += part->count[i];
+  }
+  // A quarter of the pixels, and the same surface within the larger
+  // errors of the rows read.
+  EXPECT_NEAR(part_count / full_count, 0.25, 0.01);
+  ExpectProfileMatchesTruth(*part, g.radius_px, 86.0);
+  // Errors about twice as large (a quarter of the samples), on average
+  // over the bins away from the limbs.
+  double ratio = 0.0;
+  int bins = 0;
+  for (int i = 0; i < part->NumBins(); ++i) {
+    if (std::fabs(part->azimuth_rad[i]) > 60.0 * kDeg) continue;
+    ratio += part->stderr_mean[i] / full->stderr_mean[i];
+    ++bins;
+  }
+  ASSERT_GT(bins, 0);
+  EXPECT_NEAR(ratio / bins, 2.0, 0.5);
+  EXPECT_NEAR(part->background, kBackground, 0.002);
+  EXPECT_NEAR(part->background_noise, kNoise, 0.002);
+  some.max_rows = -1;
+  EXPECT_EQ(ExtractProfile(image, g, projection, some).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 TEST(ProfileExtractionTest, SaturatedPixelsAreExcludedAndCounted) {
   const CylinderGeometry g = TiltedGeometry();
   const Projection projection;
