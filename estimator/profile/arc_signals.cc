@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
 #include "absl/status/status.h"
 
 namespace weavefit {
@@ -56,14 +58,12 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
       const int x0 = std::clamp(static_cast<int>(std::floor(axis + lo)), 0, luminance.width - 1);
       const int x1 = std::clamp(static_cast<int>(std::ceil(axis + hi)), 0, luminance.width - 1);
       const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
-      double sum = 0.0;
-      double sum_sq = 0.0;
-      for (int x = x0; x <= x1; ++x) {
-        sum += row[x];
-        sum_sq += static_cast<double>(row[x]) * row[x];
-      }
+      // OpenCV's vectorised mean and standard deviation over the span.
       const int n = x1 - x0 + 1;
-      const double v = sum_sq - sum * sum / n;
+      cv::Scalar mean;
+      cv::Scalar sd;
+      cv::meanStdDev(cv::Mat(1, n, CV_32F, const_cast<float*>(row + x0)), mean, sd);
+      const double v = sd[0] * sd[0] * n;
       // A non-finite row (NaN pixels from a direct caller) ranks last.
       spread.push_back({std::isfinite(v) ? v : -std::numeric_limits<double>::infinity(), y});
     }
