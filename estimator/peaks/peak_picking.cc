@@ -20,9 +20,16 @@ constexpr double kDeg = M_PI / 180.0;
 // Background-subtracted mean per bin from row blocks weighted by `weights`
 // (1 each for the plain profile, multiplicities for a bootstrap resample).
 // Empty bins are filled by linear interpolation from their neighbours.
-std::vector<double> MeanFromBlocks(const Profile& p,
-                                   const std::vector<int>& weights) {
-  const int n = p.NumBins();
+// With a range [from, to], only those bins are computed (and filled from
+// neighbours inside it); the others are 0.
+std::vector<double> MeanFromBlocks(const Profile& p, const std::vector<int>& weights,
+                                   int from = 0, int to = -1) {
+  const int all = p.NumBins();
+  if (to < 0 || to >= all) to = all - 1;
+  from = std::max(from, 0);
+  std::vector<double> whole(all, 0.0);
+  if (to < from) return whole;
+  const int n = to - from + 1;
   std::vector<double> mean(n, 0.0);
   std::vector<bool> have(n, false);
   for (int i = 0; i < n; ++i) {
@@ -30,7 +37,7 @@ std::vector<double> MeanFromBlocks(const Profile& p,
     double count = 0.0;
     for (int b = 0; b < p.num_blocks; ++b) {
       if (weights[b] == 0) continue;
-      const std::size_t at = static_cast<std::size_t>(b) * n + i;
+      const std::size_t at = static_cast<std::size_t>(b) * all + from + i;
       sum += weights[b] * p.block_sum[at];
       count += weights[b] * p.block_count[at];
     }
@@ -52,7 +59,8 @@ std::vector<double> MeanFromBlocks(const Profile& p,
     last = i;
   }
   for (int k = last + 1; k < n && last >= 0; ++k) mean[k] = mean[last];
-  return mean;
+  std::copy(mean.begin(), mean.end(), whole.begin() + from);
+  return whole;
 }
 
 // Sub-bin position of a maximum at index i, by a parabola through i−1..i+1.
@@ -424,15 +432,27 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
 
   std::mt19937 rng(options.seed);
   std::uniform_int_distribution<int> pick(0, profile.num_blocks - 1);
-  auto resample = [&]() {
+  // A bootstrap resample is read only near the lobe: its maxima are sought
+  // inside [lobe_lo, lobe_hi] or within `radius` bins of peaks there, then
+  // refined from their neighbours. So it is smoothed over that stretch
+  // alone, from the block means within the smoothing's reach of it.
+  const double radius = std::max(2.0, 0.5 * kDeg / bin);
+  const int read_margin = static_cast<int>(std::ceil(std::max(radius, 3.0))) + 3;
+  const int read_lo = std::max(0, lobe_lo - read_margin);
+  const int read_hi = std::min(n - 1, lobe_hi + read_margin);
+  auto smoothed_resample = [&](double sigma) {
     std::vector<int> w(profile.num_blocks, 0);
     for (int k = 0; k < profile.num_blocks; ++k) ++w[pick(rng)];
-    std::vector<double> t = MeanFromBlocks(profile, w);
-    for (int i = 0; i < n; ++i) {
+    const int reach = static_cast<int>(std::ceil(3.0 * sigma)) + 1;
+    const int from = std::max(0, read_lo - reach);
+    const int to = std::min(n - 1, read_hi + reach);
+    std::vector<double> t = MeanFromBlocks(profile, w, from, to);
+    for (int i = from; i <= to; ++i) {
       if (filled[i] != raw[i]) t[i] = filled[i];  // clipped bins as above
     }
-    return Smooth(t, sigma_bins);
+    return Smooth(t, sigma, read_lo, read_hi);
   };
+  auto resample = [&]() { return smoothed_resample(sigma_bins); };
   // Position quantisation: a bin, or a pixel's footprint in azimuth where
   // that is wider (toward the limbs), as a uniform error.
   auto quantisation_at = [&](double phi) {
@@ -462,14 +482,19 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     result.mirror_rad = 0.5 * (result.left_peak_rad + result.right_peak_rad);
     std::vector<double> spacings;
     std::vector<double> mirrors;
-    const double radius = std::max(2.0, 0.5 * kDeg / bin);
-    for (int r = 0; r < options.bootstrap_samples; ++r) {
-      const std::vector<double> t = resample();
-      const double l = azimuth_of(NearestPeak(t, left, radius));
-      const double rr = azimuth_of(NearestPeak(t, right, radius));
-      spacings.push_back(spacing_of(l, rr));
-      mirrors.push_back(0.5 * (l + rr));
-    }
+    // The spread of the peaks read as above over resamples of the row
+    // blocks (unless the comb below is read after heavier smoothing, which
+    // has its own).
+    auto bootstrap_peaks = [&]() {
+      for (int r = 0; r < options.bootstrap_samples; ++r) {
+        const std::vector<double> t = resample();
+        const double l = azimuth_of(NearestPeak(t, left, radius));
+        const double rr = azimuth_of(NearestPeak(t, right, radius));
+        spacings.push_back(spacing_of(l, rr));
+        mirrors.push_back(0.5 * (l + rr));
+      }
+    };
+    bool comb_bootstrapped = false;
     double comb_rad = 0.0;
     if (teeth.size() >= 3) {
       // A comb of glints: one photograph samples only the weave phases of
@@ -487,15 +512,14 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       const double gap = Median(gaps);
       const double sigma_h = std::clamp(gap, 0.5 * kDeg, 3.0 * kDeg);
       const double mid = 0.5 * (left_index + right_index);
-      auto heavy_peaks = [&](const std::vector<double>& profile_values, double* l, double* r) {
-        const std::vector<double> h = Smooth(profile_values, sigma_h / bin);
+      auto heavy_peaks = [&](const std::vector<double>& h, double* l, double* r) {
         *l = HighestMaximum(h, lobe_lo, static_cast<int>(std::floor(mid)));
         *r = HighestMaximum(h, static_cast<int>(std::ceil(mid)), lobe_hi);
         return *l >= 0 && *r >= 0 && *r - *l >= 3;
       };
       double hl = 0;
       double hr = 0;
-      if (heavy_peaks(filled, &hl, &hr)) {
+      if (heavy_peaks(Smooth(filled, sigma_h / bin), &hl, &hr)) {
         const double mirror = 0.5 * (azimuth_of(hl) + azimuth_of(hr));
         const double measured = spacing_of(azimuth_of(hl), azimuth_of(hr));
         const double m = InvertSmoothedSinusoidSpacing(measured, sigma_h, mirror);
@@ -508,20 +532,11 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         const double gain_h =
             (PeakSpacingRad(InvertSmoothedSinusoidSpacing(measured + delta, sigma_h, mirror)) -
              result.spacing_rad) / delta;
-        spacings.clear();
-        mirrors.clear();
+        comb_bootstrapped = true;
         for (int r = 0; r < options.bootstrap_samples; ++r) {
-          std::vector<double> t = MeanFromBlocks(profile, [&] {
-            std::vector<int> w(profile.num_blocks, 0);
-            for (int k = 0; k < profile.num_blocks; ++k) ++w[pick(rng)];
-            return w;
-          }());
-          for (int i = 0; i < n; ++i) {
-            if (filled[i] != raw[i]) t[i] = filled[i];
-          }
           double bl = 0;
           double br = 0;
-          if (!heavy_peaks(t, &bl, &br)) continue;
+          if (!heavy_peaks(smoothed_resample(sigma_h / bin), &bl, &br)) continue;
           spacings.push_back(gain_h * spacing_of(azimuth_of(bl), azimuth_of(br)));
           mirrors.push_back(0.5 * (azimuth_of(bl) + azimuth_of(br)));
         }
@@ -544,6 +559,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
             static_cast<int>(teeth.size()), gap / kDeg));
       }
     }
+    if (!comb_bootstrapped) bootstrap_peaks();
     double pull_rad = 0.0;  // systematic error of the blur-pull correction
     if (teeth.size() < 3 && result.model == ProfileModel::kSinusoid) {
       // A smooth sinusoid lobe: undo the blur's inward pull on the caustic

@@ -9,7 +9,10 @@ namespace weavefit {
 
 // Convolves v with a Gaussian of sigma_bins samples (truncated at 3 σ),
 // renormalised at the ends; below 0.3 samples v is returned as it is.
-inline std::vector<double> Smooth(const std::vector<double>& v, double sigma_bins) {
+// With a range [from, to], only the outputs there are computed (each exactly
+// as without one; they read v within 3 σ of the range); the others are v's.
+inline std::vector<double> Smooth(const std::vector<double>& v, double sigma_bins,
+                                  int from = 0, int to = -1) {
   if (sigma_bins < 0.3) return v;
   const int half = static_cast<int>(std::ceil(3.0 * sigma_bins));
   std::vector<double> kernel(2 * half + 1);
@@ -17,10 +20,12 @@ inline std::vector<double> Smooth(const std::vector<double>& v, double sigma_bin
     kernel[k + half] = std::exp(-0.5 * k * k / (sigma_bins * sigma_bins));
   }
   const int n = static_cast<int>(v.size());
-  std::vector<double> out(n);
+  if (to < 0 || to >= n) to = n - 1;
+  if (from < 0) from = 0;
+  std::vector<double> out = from == 0 && to == n - 1 ? std::vector<double>(n) : v;
   double whole = 0.0;  // the kernel's sum, summed in the same order as below
   for (int k = -half; k <= half; ++k) whole += kernel[k + half];
-  for (int i = 0; i < n; ++i) {
+  for (int i = from; i <= to; ++i) {
     if (i >= half && i + half < n) {
       // Inside: the whole kernel, no bounds to check (the hot path).
       const double* x = &v[i - half];
