@@ -452,6 +452,33 @@ TEST(ArcPixelsTest, UprightAxisTakesTheAnchorRowsPixels) {
   }
 }
 
+// ArcSignalOptions::rows: exactly the rows given, in their order, with the
+// same samples as the rows ranked or taken whole; rows outside the usable
+// range are an error.
+TEST(ArcSignalsTest, GivenRowsAreSampledAsGiven) {
+  const Image image = Ramp(101, 20);
+  ArcSignalOptions options;
+  options.from_rad = -30.0 * kDeg;
+  options.to_rad = 30.0 * kDeg;
+  absl::StatusOr<ArcSignals> all = ExtractArcSignals(image, Upright(), kOrthographic, options);
+  ASSERT_TRUE(all.ok()) << all.status();
+  ASSERT_EQ(all->rows.size(), 20u);
+  options.rows = {12, 3, 19};
+  absl::StatusOr<ArcSignals> some = ExtractArcSignals(image, Upright(), kOrthographic, options);
+  ASSERT_TRUE(some.ok()) << some.status();
+  ASSERT_EQ(some->rows, options.rows);
+  ASSERT_EQ(some->num_samples, all->num_samples);
+  for (std::size_t r = 0; r < options.rows.size(); ++r) {
+    for (int k = 0; k < some->num_samples; ++k) {
+      EXPECT_EQ(some->values[r * some->num_samples + k],
+                all->values[options.rows[r] * all->num_samples + k]);
+    }
+  }
+  options.rows = {5, 20};
+  EXPECT_EQ(ExtractArcSignals(image, Upright(), kOrthographic, options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 TEST(ArcPixelsTest, BinsAverageNeighbouringColumns) {
   const Image image = Ramp(101, 20);
   absl::StatusOr<ArcPixels> pairs =

@@ -206,23 +206,27 @@ double MaxSlopeUpperBound(const Profile& profile, double mirror_rad, double phas
 }
 
 // The comb of glints fitted row by row (glints/comb_fit.h) over the whole
-// lobe and a margin beyond the peaks read (which a comb pulls inward).
-absl::StatusOr<CombFitResult> FitCombOverLobe(const Image& luminance,
-                                              const CylinderGeometry& cylinder,
-                                              const Projection& projection,
-                                              const PeakPickingResult& peaks,
-                                              const GlintModel& model, double wavelength_mm,
-                                              const CombFitOptions& options) {
+// lobe and a margin beyond the peaks read (which a comb pulls inward): the
+// range of `wide`, signals along the rows the period search chose
+// (WideArcSignals).
+ArcSignalOptions WideArcRange(const PeakPickingResult& peaks, const Projection& projection) {
   const double half = 0.5 * peaks.spacing_rad;
   const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;
   const double reach = half + std::max(4.0 * kDeg, 0.25 * half);
   ArcSignalOptions wide;
   wide.from_rad = std::max(peaks.mirror_rad - reach, -limit);
   wide.to_rad = std::min(peaks.mirror_rad + reach, limit);
-  wide.max_rows = 192;
-  absl::StatusOr<ArcSignals> signals = ExtractArcSignals(luminance, cylinder, projection, wide);
-  if (!signals.ok()) return signals.status();
-  absl::StatusOr<CombRows> rows = ChooseCombRows(*signals, model, wavelength_mm, options.max_rows);
+  return wide;
+}
+
+absl::StatusOr<CombFitResult> FitCombOverLobe(const Image& luminance,
+                                              const CylinderGeometry& cylinder,
+                                              const Projection& projection,
+                                              const ArcSignalOptions& wide,
+                                              const ArcSignals& signals,
+                                              const GlintModel& model, double wavelength_mm,
+                                              const CombFitOptions& options) {
+  absl::StatusOr<CombRows> rows = ChooseCombRows(signals, model, wavelength_mm, options.max_rows);
   if (!rows.ok()) return rows.status();
   // Neighbouring columns binned so that a row holds at most
   // max_samples_per_row bins.
@@ -351,9 +355,18 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
       period->resolved ? options.comb.min_explained : options.comb.min_explained_alone;
   std::string comb_failure;
   std::optional<CombFitResult> best;
+  // The signals over the comb's wider range, along the rows the period
+  // search ranked (the lobe's glints rank them the same way), once for all
+  // the starts.
+  ArcSignalOptions wide = WideArcRange(peaks, projection);
+  wide.rows = signals->rows;
+  const absl::StatusOr<ArcSignals> wide_signals =
+      ExtractArcSignals(luminance, cylinder, projection, wide);
   for (double start : starts) {
     absl::StatusOr<CombFitResult> comb =
-        FitCombOverLobe(luminance, cylinder, projection, peaks, model, start, options.comb);
+        wide_signals.ok() ? FitCombOverLobe(luminance, cylinder, projection, wide, *wide_signals,
+                                            model, start, options.comb)
+                          : absl::StatusOr<CombFitResult>(wide_signals.status());
     if (comb.ok() && comb->converged && comb->explained >= needed &&
         std::fabs(comb->wavelength_mm / start - 1.0) < 0.05 &&
         std::fabs(comb->max_slope / peaks.max_slope - 1.0) < 0.3) {

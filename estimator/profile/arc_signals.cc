@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
 
 namespace weavefit {
 
@@ -45,7 +46,16 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
     dx[k] = OffsetFromAzimuth(out.first_azimuth_rad + k * out.step_rad, projection) * horizontal;
   }
   const int usable = geometry.bottom_row - geometry.top_row + 1;
-  if (options.max_rows > 0 && usable > options.max_rows) {
+  if (!options.rows.empty()) {
+    for (int y : options.rows) {
+      if (y < geometry.top_row || y > geometry.bottom_row) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "arc signal row ", y, " is outside the usable rows ", geometry.top_row, "-",
+            geometry.bottom_row));
+      }
+    }
+    out.rows = options.rows;
+  } else if (options.max_rows > 0 && usable > options.max_rows) {
     // Glints line up along thread crests, a few rows of each thread: keep
     // the rows whose pixels over the range vary most (one pass over the raw
     // pixels), in image order.
@@ -82,13 +92,20 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
   // with one weave phase, when the axis is tilted. Bilinear interpolation.
   const double cos_t = std::cos(geometry.axis_angle_rad);
   const double sin_t = std::sin(geometry.axis_angle_rad);
+  // The sample's displacement from the row's axis point, the same for
+  // every row: d·(cos t, sin t) with d = dx·cos t the perpendicular distance.
+  std::vector<double> along_x(out.num_samples);
+  std::vector<double> along_y(out.num_samples);
+  for (int k = 0; k < out.num_samples; ++k) {
+    along_x[k] = dx[k] * cos_t * cos_t;
+    along_y[k] = dx[k] * cos_t * sin_t;
+  }
   for (std::size_t r = 0; r < out.rows.size(); ++r) {
     const int y = out.rows[r];
     const double axis = geometry.AxisColumn(y);
     for (int k = 0; k < out.num_samples; ++k) {
-      const double d = dx[k] * cos_t;  // perpendicular distance from the axis
-      const double x = axis + d * cos_t;
-      const double yy = y + d * sin_t;
+      const double x = axis + along_x[k];
+      const double yy = y + along_y[k];
       const int x0 = std::clamp(static_cast<int>(std::floor(x)), 0, luminance.width - 2);
       const int y0 = std::clamp(static_cast<int>(std::floor(yy)), 0, luminance.height - 2);
       const double tx = std::clamp(x - x0, 0.0, 1.0);

@@ -37,6 +37,10 @@ struct ArcSignalOptions {
   // At most this many rows: those whose pixels over the range vary most
   // (glints follow thread crests); 0 = all usable rows.
   int max_rows = 0;
+  // When not empty, exactly these image rows (each within the usable rows),
+  // in this order, and max_rows is not used: a wider range over the rows
+  // an earlier call chose, without ranking the rows again.
+  std::vector<int> rows;
 
   absl::Status Validate() const;
 };
