@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -97,8 +99,9 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     std::vector<double> sum;        // per block and column offset
     std::vector<double> count;      // unmasked pixels
     std::vector<double> saturated;  // masked pixels
-    // Rows without a masked pixel count 1 over their whole span: kept as a
-    // difference array per block (width + 1 entries), added at the end.
+    // Each run of unmasked pixels counts 1 over its span: kept as a
+    // difference array per block (width + 1 entries), added into count at
+    // the end.
     std::vector<double> span_diff;
   };
   std::vector<ColumnSums> column_sums(kSubpixel);
@@ -180,7 +183,6 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     const int dx_lo = std::max(-half_span, -b0);
     const int dx_hi = std::min(half_span, luminance.width - 1 - b0);
     double* sum = cs.sum.data() + at0;
-    double* count = cs.count.data() + at0;
     double* saturated = cs.saturated.data() + at0;
     // A row with no masked pixel in its span takes the plain sum
     // (countNonZero is vectorised).
@@ -189,25 +191,42 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
                                  const_cast<std::uint8_t*>(mask + b0 + dx_lo))) == 0) {
       mask = nullptr;  // any nonzero byte is a masked pixel (Image::IsSaturated)
     }
+    // A run of unmasked pixels [from, to] (column offsets): OpenCV's
+    // vectorised float-into-double accumulation, and one count each through
+    // the block's difference array.
+    double* diff = cs.span_diff.data() + static_cast<std::size_t>(block) * (width + 1) + half_span;
+    auto add_run = [&](int from, int to) {
+      if (to < from) return;
+      const int n = to - from + 1;
+      cv::accumulate(cv::Mat(1, n, CV_32F, const_cast<float*>(row + b0 + from)),
+                     cv::Mat(1, n, CV_64F, sum + from));
+      diff[from] += 1.0;
+      diff[to + 1] -= 1.0;
+    };
     if (mask == nullptr) {
-      if (dx_hi >= dx_lo) {
-        // OpenCV's vectorised float-into-double accumulation.
-        const int n = dx_hi - dx_lo + 1;
-        cv::accumulate(cv::Mat(1, n, CV_32F, const_cast<float*>(row + b0 + dx_lo)),
-                       cv::Mat(1, n, CV_64F, sum + dx_lo));
-        double* diff = cs.span_diff.data() + static_cast<std::size_t>(block) * (width + 1) + half_span;
-        diff[dx_lo] += 1.0;
-        diff[dx_hi + 1] -= 1.0;
-      }
+      add_run(dx_lo, dx_hi);
     } else {
-      for (int dx = dx_lo; dx <= dx_hi; ++dx) {
-        if (mask[b0 + dx]) {
-          saturated[dx] += 1.0;
-        } else {
-          sum[dx] += row[b0 + dx];
-          count[dx] += 1.0;
+      // The runs between masked pixels (a clipped glint masks a few pixels
+      // of a row), skipping unmasked stretches eight mask bytes at a time.
+      int run = dx_lo;
+      int dx = dx_lo;
+      while (dx <= dx_hi) {
+        if (dx + 8 <= dx_hi + 1) {
+          std::uint64_t word;
+          std::memcpy(&word, mask + b0 + dx, sizeof(word));
+          if (word == 0) {
+            dx += 8;
+            continue;
+          }
         }
+        if (mask[b0 + dx]) {
+          add_run(run, dx - 1);
+          saturated[dx] += 1.0;
+          run = dx + 1;
+        }
+        ++dx;
       }
+      add_run(run, dx_hi);
     }
   }
   for (int key = 0; key < kSubpixel; ++key) {
