@@ -586,13 +586,14 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   if (absl::Status s = clock.Lap("detect"); !s.ok()) return s;
 
   const Projection projection = acquisition.GetProjection();
-  // Fast mode reads at most 768 rows and balanced 1024: plenty for the
-  // profile's peaks (several thousand pixels per bin), and they keep a
-  // 12 Mpx photograph's profile a few milliseconds. Accurate reads them all.
-  // The thread period comes from the arc signals, which choose their own rows.
+  // Fast mode reads at most 768 rows: plenty for the profile's peaks
+  // (several thousand pixels per bin), and it keeps a 12 Mpx photograph's
+  // profile a few milliseconds. The other modes read every row: their comb
+  // fit starts from these peaks, and a 12 Mpx render whose fit sat at the
+  // acceptance threshold fell below it from a 1024-row start.
   ProfileOptions profile_options = options.profile;
-  if (profile_options.max_rows == 0 && options.mode != Mode::kAccurate) {
-    profile_options.max_rows = options.mode == Mode::kFast ? 768 : 1024;
+  if (profile_options.max_rows == 0 && options.mode == Mode::kFast) {
+    profile_options.max_rows = 768;
   }
   absl::StatusOr<Profile> profile =
       ExtractProfile(luminance, *cylinder, projection, profile_options);
