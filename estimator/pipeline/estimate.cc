@@ -207,8 +207,8 @@ double MaxSlopeUpperBound(const Profile& profile, double mirror_rad, double phas
 
 // The comb of glints fitted row by row (glints/comb_fit.h) over the whole
 // lobe and a margin beyond the peaks read (which a comb pulls inward): the
-// range of `wide`, signals along the rows the period search chose
-// (WideArcSignals).
+// range of `wide` (WideArcRange), signals along the rows the period search
+// chose (EstimateWavelength).
 ArcSignalOptions WideArcRange(const PeakPickingResult& peaks, const Projection& projection) {
   const double half = 0.5 * peaks.spacing_rad;
   const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;

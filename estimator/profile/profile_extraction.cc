@@ -61,9 +61,9 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   profile.saturated.assign(num_bins, 0.0);
 
   const int rows = geometry.bottom_row - geometry.top_row + 1;
-  // φ as a function of the normalised offset, tabulated at 1/16 px (at
-  // least every 1/4096 of the radius) and interpolated linearly for
-  // |offset| < 0.9 (error below 3e-7 rad there): one table instead of an
+  // φ as a function of the normalised offset, tabulated every 1/16 px (every
+  // 1/4096 of the radius on radii over 256 px) and interpolated linearly for
+  // |offset| < 0.9 (error below 1e-7 rad there): one table instead of an
   // arcsine per pixel edge. Toward the limb the mapping's slope diverges, so
   // the few pixels there get the exact value.
   constexpr double kTabulated = 0.9;
