@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -174,24 +176,28 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   return best_e;
 }
 
-// Column of the brightest part of the surface: the centroid of the columns
-// more than half-way from the median of [from, to] to its maximum.
-double BrightestCentroid(const std::vector<double>& mean_profile, int x0, double from, double to) {
+// The first and last columns of [from, to] more than half-way from the
+// median to the maximum: the ends of the specular lobe (for a split lobe, its
+// two caustics, whichever of them is the brighter). NaN when none is.
+std::pair<double, double> BrightExtent(const std::vector<double>& mean_profile, int x0,
+                                       double from, double to) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   const int lo = std::max(0, static_cast<int>(std::ceil(from)) - x0);
   const int hi = std::min(static_cast<int>(mean_profile.size()) - 1, static_cast<int>(std::floor(to)) - x0);
-  if (hi <= lo) return std::numeric_limits<double>::quiet_NaN();
+  if (hi <= lo) return {nan, nan};
   std::vector<double> values(mean_profile.begin() + lo, mean_profile.begin() + hi + 1);
   const double median = Median(values);
   const double top = *std::max_element(values.begin(), values.end());
   const double level = median + 0.5 * (top - median);
-  double sum = 0.0;
-  double weight = 0.0;
+  int first = -1;
+  int last = -1;
   for (int x = lo; x <= hi; ++x) {
-    if (mean_profile[x] <= level) continue;
-    sum += (mean_profile[x] - level) * (x + x0);
-    weight += mean_profile[x] - level;
+    if (!(mean_profile[x] > level)) continue;
+    if (first < 0) first = x;
+    last = x;
   }
-  return weight > 0.0 ? sum / weight : std::numeric_limits<double>::quiet_NaN();
+  if (first < 0) return {nan, nan};
+  return {first + x0, last + x0};
 }
 
 }  // namespace
@@ -459,13 +465,21 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   // (terminator.h) and keep the cylinder whose lobe stands at α/2.
   if (std::isfinite(options.phase_angle_rad)) {
     const double half_alpha = options.phase_angle_rad / 2.0;
+    // Where the lobe stands: the mean azimuth of its two ends. A split
+    // lobe's caustics lie symmetric about the mirror azimuth, whichever is
+    // the brighter. (The centroid of the brightest columns, used before,
+    // took a seen limb for a dark one under a wide lobe:
+    // DetectionCasesTest.WideSplitLobeKeepsBothSeenLimbs.)
     auto lobe_azimuth = [&](const CylinderGeometry& c) {
       const double half = c.radius_px / std::cos(c.axis_angle_rad);
-      const double xc = BrightestCentroid(mean_profile, region.x, c.center_x_px - 0.9 * half,
-                                          c.center_x_px + 0.9 * half);
-      if (!std::isfinite(xc)) return half_alpha;
-      return AzimuthFromOffset(std::clamp((xc - c.center_x_px) / half, -1.0, 1.0),
-                               options.projection);
+      const auto [first, last] = BrightExtent(mean_profile, region.x, c.center_x_px - 0.9 * half,
+                                              c.center_x_px + 0.9 * half);
+      if (!std::isfinite(first)) return half_alpha;
+      auto azimuth = [&](double x) {
+        return AzimuthFromOffset(std::clamp((x - c.center_x_px) / half, -1.0, 1.0),
+                                 options.projection);
+      };
+      return 0.5 * (azimuth(first) + azimuth(last));
     };
     // The part of the disc in shadow, from the unlit limb to the terminator
     // φ_T = α − sign(α)·90° (with a margin for blur and the tilt's smear of

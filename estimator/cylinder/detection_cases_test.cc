@@ -346,6 +346,30 @@ TEST(DarkLimbTest, InferredOnALargerPhotograph) {
   ExpectInferredDarkLimb(scene);
 }
 
+// A wide split lobe (m = 0.35 at α = 60°: caustics near 11° and 49°) with
+// both limbs seen against the background: both stay observed (the lobe's
+// position is the mean azimuth of its ends). When the lobe was placed by the
+// centroid of its brightest columns, this render had its left limb
+// "inferred" 267 px outside the photograph (radius 853 px for 640) and the
+// spacing came out 8.6° short.
+TEST(DetectionCasesTest, WideSplitLobeKeepsBothSeenLimbs) {
+  RenderScene scene;
+  scene.width_px = 1600;
+  scene.height_px = 1200;
+  scene.model = ProfileModel::kSinusoid;
+  scene.wavelength_mm = 2.0;
+  scene.amplitude_mm = 0.35 * 2.0 / (2.0 * M_PI);
+  scene.phase_angle_deg = 60.0;
+  scene.seed = 52;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_TRUE(g->left_observed);
+  EXPECT_TRUE(g->right_observed);
+  EXPECT_NEAR(g->radius_px, rendered.truth.radius_px, kLimbTolerancePx);
+  EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, kLimbTolerancePx);
+}
+
 // Without a lit terminator (no Lambertian term) nothing places the unlit
 // limb, and nor is the lit limb seen beyond the lobe: a clear error, never a
 // confident wrong cylinder.
