@@ -97,11 +97,9 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   const int width = 2 * half_span + 1;
   struct ColumnSums {
     std::vector<double> sum;        // per block and column offset
-    std::vector<double> count;      // unmasked pixels
     std::vector<double> saturated;  // masked pixels
-    // Each run of unmasked pixels counts 1 over its span: kept as a
-    // difference array per block (width + 1 entries), added into count at
-    // the end.
+    // Unmasked pixels: each run of them counts 1 over its span, kept as a
+    // difference array per block (width + 1 entries) and summed at the end.
     std::vector<double> span_diff;
   };
   std::vector<ColumnSums> column_sums(kSubpixel);
@@ -170,7 +168,6 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     ColumnSums& cs = column_sums[key];
     if (cs.sum.empty()) {
       cs.sum.assign(static_cast<std::size_t>(options.num_blocks) * width, 0.0);
-      cs.count.assign(cs.sum.size(), 0.0);
       cs.saturated.assign(cs.sum.size(), 0.0);
       cs.span_diff.assign(static_cast<std::size_t>(options.num_blocks) * (width + 1), 0.0);
     }
@@ -184,13 +181,6 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     const int dx_hi = std::min(half_span, luminance.width - 1 - b0);
     double* sum = cs.sum.data() + at0;
     double* saturated = cs.saturated.data() + at0;
-    // A row with no masked pixel in its span takes the plain sum
-    // (countNonZero is vectorised).
-    if (mask != nullptr && dx_hi >= dx_lo &&
-        cv::countNonZero(cv::Mat(1, dx_hi - dx_lo + 1, CV_8U,
-                                 const_cast<std::uint8_t*>(mask + b0 + dx_lo))) == 0) {
-      mask = nullptr;  // any nonzero byte is a masked pixel (Image::IsSaturated)
-    }
     // A run of unmasked pixels [from, to] (column offsets): OpenCV's
     // vectorised float-into-double accumulation, and one count each through
     // the block's difference array.
@@ -206,8 +196,9 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     if (mask == nullptr) {
       add_run(dx_lo, dx_hi);
     } else {
-      // The runs between masked pixels (a clipped glint masks a few pixels
-      // of a row), skipping unmasked stretches eight mask bytes at a time.
+      // The runs between masked pixels (any nonzero byte: a clipped glint
+      // masks a few pixels of a row), skipping unmasked stretches eight mask
+      // bytes at a time; a row without one is a single run.
       int run = dx_lo;
       int dx = dx_lo;
       while (dx <= dx_hi) {
@@ -234,23 +225,19 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     if (cs.sum.empty()) continue;
     const Footprints& fp = footprints[key];
     for (int block = 0; block < options.num_blocks; ++block) {
-      // The spans of the unmasked rows into the counts.
-      double running = 0.0;
+      // Unmasked pixels per column offset: the running sum of the runs'
+      // difference array.
+      double count = 0.0;
       const double* diff = cs.span_diff.data() + static_cast<std::size_t>(block) * (width + 1);
-      double* column_count = cs.count.data() + static_cast<std::size_t>(block) * width;
-      for (int i = 0; i < width; ++i) {
-        running += diff[i];
-        column_count[i] += running;
-      }
       double* sums = &profile.block_sum[static_cast<std::size_t>(block) * num_bins];
       double* counts = &profile.block_count[static_cast<std::size_t>(block) * num_bins];
       for (int dx = -half_span; dx <= half_span; ++dx) {
+        count += diff[dx + half_span];
         const int from = fp.start[dx + half_span];
         const int to = fp.start[dx + half_span + 1];
         if (from == to) continue;
         const std::size_t at = static_cast<std::size_t>(block) * width + dx + half_span;
         const double sum = cs.sum[at];
-        const double count = cs.count[at];
         const double saturated = cs.saturated[at];
         profile.saturated_samples += static_cast<int>(saturated);
         for (int j = from; j < to; ++j) {
