@@ -8,7 +8,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
 packages=(
   cmake g++ make pkg-config
-  libopencv-dev libceres-dev libopenexr-dev libflann-dev liblz4-dev
+  libopencv-dev libceres-dev libopenexr-dev libflann-dev liblz4-dev libpng-dev
   libgrpc++-dev libgrpc-dev protobuf-compiler protobuf-compiler-grpc libprotobuf-dev
   libabsl-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libgoogle-glog-dev
   libcivetweb-dev libssl-dev

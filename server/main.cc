@@ -17,6 +17,13 @@ int main(int argc, char** argv) {
   // freed there; with gRPC's thread pool every request could leave a 12 Mpx
   // image's worth behind in another arena. Two arenas bound that.
   mallopt(M_ARENA_MAX, 2);
+  // And glibc raises its mmap threshold to the largest block freed (up to
+  // 32 MB), after which an upload or a saturation mask is carved from an
+  // arena and its pages stay behind: after four requests of a 12 Mpx 16-bit
+  // PNG the peak resident set was 168.7 MiB with glibc's default and
+  // 153.1 MiB with this fixed threshold, which gives every large buffer
+  // back when it is freed.
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
   weavefit::ServerOptions options;
   weavefit::ServiceOptions& service = options.service;
   double max_upload_mb = 64.0;

@@ -142,7 +142,16 @@ absl::Status WeaveFitService::ReadUploads(grpc::ServerContext* context,
       return absl::ResourceExhaustedError(absl::StrCat(
           "the photographs of one call exceed the limit of ", options_.max_call_bytes, " bytes"));
     }
+    if (bytes.size() + chunk.size() > bytes.capacity()) {
+      // Doubling, but never past what the header announced: an honest
+      // upload ends in a buffer of exactly its size.
+      const std::size_t announced = uploads->back().header.total_bytes();
+      std::size_t want = std::max(2 * bytes.capacity(), bytes.size() + chunk.size());
+      if (announced >= bytes.size() + chunk.size()) want = std::min<std::size_t>(want, announced);
+      bytes.reserve(want);
+    }
     bytes.append(chunk);
+    uploads->back().received = bytes.size();
   }
   if (guard.expired()) {
     // The watchdog cancelled the call, so CANCELLED is what the client sees;
@@ -157,9 +166,10 @@ absl::Status WeaveFitService::ReadUploads(grpc::ServerContext* context,
   return CheckUpload(uploads->back());
 }
 
-absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(const Upload& upload,
+absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(Upload* upload_ptr,
                                                                   grpc::ServerContext* context,
                                                                   Call* call) {
+  Upload& upload = *upload_ptr;
   absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(upload.header.acquisition());
   if (!acquisition.ok()) return acquisition.status();
   EstimateOptions options = OptionsFromProto(upload.header.options(), options_.estimate);
@@ -173,7 +183,7 @@ absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(const Upload& 
   };
   if (metrics_ != nullptr) metrics_->received_bytes.Observe(upload.bytes.size());
   absl::StatusOr<weavefit::Estimate> estimate =
-      EstimateFromBytes(upload.bytes, *acquisition, options);
+      EstimateFromBytes(std::move(upload.bytes), *acquisition, options);
   if (!estimate.ok()) return estimate.status();
   if (metrics_ != nullptr) {
     double decode_ms = 0.0, rest_ms = 0.0;
@@ -190,7 +200,7 @@ void WeaveFitService::Finish(const char* method, grpc::ServerContext* context, c
                              const std::vector<Upload>& uploads, const absl::Status& status) {
   const double seconds = std::chrono::duration<double>(Clock::now() - call.start).count();
   std::size_t bytes = 0;
-  for (const Upload& u : uploads) bytes += u.bytes.size();
+  for (const Upload& u : uploads) bytes += u.received;
   const std::string outcome =
       status.ok() ? std::string("OK")
                   : absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
@@ -221,7 +231,7 @@ grpc::Status WeaveFitService::Estimate(grpc::ServerContext* context,
     }
   }
   if (status.ok()) {
-    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(uploads[0], context, &call);
+    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(&uploads[0], context, &call);
     status = one.status();
     if (one.ok()) *reply = *std::move(one);
   }
@@ -251,7 +261,7 @@ grpc::Status WeaveFitService::EstimateJoint(grpc::ServerContext* context,
   std::vector<PhotographEstimate> photographs;
   std::vector<std::string> names;
   for (std::size_t i = 0; status.ok() && i < uploads.size(); ++i) {
-    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(uploads[i], context, &call);
+    absl::StatusOr<v1::EstimateReply> one = EstimateUpload(&uploads[i], context, &call);
     if (!one.ok()) {
       status = absl::Status(one.status().code(),
                             absl::StrCat("photograph ", i + 1, " (\"", uploads[i].header.filename(),

@@ -54,7 +54,8 @@ class WeaveFitService final : public v1::WeaveFit::Service {
   // One photograph of an upload: its header and image bytes.
   struct Upload {
     v1::RequestHeader header;
-    std::string bytes;
+    std::string bytes;   // released once decoded (EstimateUpload)
+    std::size_t received = 0;
   };
   // What a call carries from its start to its end.
   struct Call;
@@ -68,9 +69,11 @@ class WeaveFitService final : public v1::WeaveFit::Service {
                            Call* call, std::vector<Upload>* uploads);
   // Checks a finished upload's size against its header.
   absl::Status CheckUpload(const Upload& upload) const;
-  // Decodes and estimates one upload (the call holds a worker slot).
-  absl::StatusOr<v1::EstimateReply> EstimateUpload(const Upload& upload,
-                                                   grpc::ServerContext* context, Call* call);
+  // Decodes and estimates one upload (the call holds a worker slot); its
+  // bytes are released once decoded, so that they and the decoded image are
+  // not both held through the fit.
+  absl::StatusOr<v1::EstimateReply> EstimateUpload(Upload* upload, grpc::ServerContext* context,
+                                                   Call* call);
   // Logging and metrics of a finished call.
   void Finish(const char* method, grpc::ServerContext* context, const Call& call,
               const std::vector<Upload>& uploads, const absl::Status& status);

@@ -503,8 +503,7 @@ TEST(ArcPixelsTest, BinsAverageNeighbouringColumns) {
 
 TEST(ArcPixelsTest, SaturatedPixelInvalidatesItsBinOnly) {
   Image image = Ramp(101, 20);
-  image.saturated.assign(static_cast<std::size_t>(image.width) * image.height, 0);
-  image.saturated[static_cast<std::size_t>(3) * image.width + 40] = 1;
+  image.MarkSaturated(40, 3);
   absl::StatusOr<ArcPixels> pixels =
       ExtractArcPixels(image, Upright(), kOrthographic, {3, 4}, -30.0 * kDeg, 30.0 * kDeg, 2);
   ASSERT_TRUE(pixels.ok()) << pixels.status();

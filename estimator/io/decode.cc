@@ -11,9 +11,11 @@
 #include <exception>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <type_traits>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "estimator/io/png_rows.h"
 
 namespace weavefit {
 namespace {
@@ -180,6 +182,68 @@ absl::StatusOr<ImageHeader> ReadExrHeader(const std::string& bytes) {
   return Malformed("EXR", "no dataWindow attribute");
 }
 
+Image EmptyImage(int width, int height, int channels, const std::string& format, int bit_depth) {
+  Image image;
+  image.width = width;
+  image.height = height;
+  image.channels = channels;
+  image.format = format;
+  image.bit_depth = bit_depth;
+  image.pixels.resize(static_cast<std::size_t>(width) * height * channels);
+  return image;
+}
+
+// How stored samples become linear values: 8-bit through the sRGB curve
+// (unless the request says linear), others divided by full scale; samples
+// at or above `saturation` (0 = none) are flagged.
+struct RowScale {
+  RowScale(int bit_depth, double full_scale, const DecodeOptions& options)
+      : bit_depth(bit_depth), full_scale(full_scale) {
+    saturation = options.saturation_level > 0 ? options.saturation_level
+                                              : (bit_depth == 32 ? 0.0 : full_scale);
+    const bool srgb = bit_depth == 8 && !options.pixels_linear;
+    for (int v = 0; v < 256; ++v) table[v] = srgb ? SrgbToLinear(v / 255.0f) : v / 255.0f;
+  }
+  int bit_depth;
+  double full_scale;
+  double saturation = 0.0;
+  float table[256];
+};
+
+// Row y of `image` from `in_channels` interleaved samples per pixel (the
+// first three, or the first alone, are kept; `bgr` when they come in
+// OpenCV's order).
+template <typename T>
+void ConvertRow(const T* row, int in_channels, bool bgr, int y, const RowScale& scale,
+                Image* image) {
+  const int channels = image->channels;
+  const std::size_t first = static_cast<std::size_t>(y) * image->width;
+  float* out = image->pixels.data() + first * channels;
+  for (int x = 0; x < image->width; ++x) {
+    const T* px = row + static_cast<std::size_t>(x) * in_channels;
+    bool saturated = false;
+    for (int c = 0; c < channels; ++c) {
+      const int source = channels == 3 && bgr ? 2 - c : c;
+      const float raw = static_cast<float>(px[source]);
+      float& value = out[static_cast<std::size_t>(x) * channels + c];
+      if constexpr (std::is_floating_point_v<T>) {
+        if (!std::isfinite(raw)) {
+          saturated = true;
+          value = 0.0f;
+          continue;
+        }
+      }
+      if (scale.saturation > 0 && raw >= scale.saturation) saturated = true;
+      if constexpr (std::is_same_v<T, std::uint8_t>) {
+        value = scale.table[px[source]];
+      } else {
+        value = static_cast<float>(raw / scale.full_scale);
+      }
+    }
+    if (saturated) image->MarkSaturated(x, y);
+  }
+}
+
 absl::StatusOr<Image> DecodeExr(const std::string& bytes,
                                 const DecodeOptions& options,
                                 const ImageHeader& header) {
@@ -225,17 +289,16 @@ absl::StatusOr<Image> DecodeExr(const std::string& bytes,
     }
     file.setFrameBuffer(frame);
     file.readPixels(window.min.y, window.max.y);
-    image.saturated.assign(static_cast<std::size_t>(image.width) * image.height,
-                           0);
-    for (std::size_t i = 0; i < image.saturated.size(); ++i) {
+    const std::size_t count = static_cast<std::size_t>(image.width) * image.height;
+    for (std::size_t i = 0; i < count; ++i) {
       for (int c = 0; c < image.channels; ++c) {
         const float v = image.pixels[i * image.channels + c];
         if (!std::isfinite(v)) {
           image.pixels[i * image.channels + c] = 0.0f;
-          image.saturated[i] = 1;
+          image.MarkSaturated(static_cast<int>(i % image.width), static_cast<int>(i / image.width));
         } else if (options.saturation_level > 0 &&
                    v >= options.saturation_level) {
-          image.saturated[i] = 1;
+          image.MarkSaturated(static_cast<int>(i % image.width), static_cast<int>(i / image.width));
         }
       }
     }
@@ -282,65 +345,49 @@ absl::StatusOr<Image> DecodeWithOpenCv(const std::string& bytes,
       return absl::InvalidArgumentError(
           absl::StrCat("unsupported sample type in ", header.format, " file"));
   }
-  const bool srgb = bit_depth == 8 && !options.pixels_linear;
-  const double saturation = options.saturation_level > 0
-                                ? options.saturation_level
-                                : (bit_depth == 32 ? 0.0 : full_scale);
   const int in_channels = decoded.channels();
-  Image image;
-  image.width = decoded.cols;
-  image.height = decoded.rows;
-  image.channels = in_channels >= 3 ? 3 : 1;
-  image.format = header.format;
-  image.bit_depth = bit_depth;
-  image.pixels.resize(static_cast<std::size_t>(image.width) * image.height *
-                      image.channels);
-  image.saturated.assign(static_cast<std::size_t>(image.width) * image.height,
-                         0);
-  // Lookup table for 8-bit values; direct scaling otherwise.
-  float srgb_table[256];
-  for (int v = 0; v < 256; ++v) {
-    srgb_table[v] = srgb ? SrgbToLinear(v / 255.0f) : v / 255.0f;
-  }
+  Image image = EmptyImage(decoded.cols, decoded.rows, in_channels >= 3 ? 3 : 1, header.format,
+                           bit_depth);
+  const RowScale scale(bit_depth, full_scale, options);
   // Straight from the decoded samples, row by row (no float copy of the
   // whole image: on 12 Mpx that is 50 MB and a pass over the pixels).
-  auto convert = [&](auto sample_type) {
-    using T = decltype(sample_type);
-    for (int y = 0; y < image.height; ++y) {
-      const T* row = decoded.ptr<T>(y);
-      for (int x = 0; x < image.width; ++x) {
-        const T* px = row + static_cast<std::size_t>(x) * in_channels;
-        const std::size_t i = static_cast<std::size_t>(y) * image.width + x;
-        bool saturated = false;
-        for (int c = 0; c < image.channels; ++c) {
-          // OpenCV stores BGR(A); Image is RGB.
-          const int source = image.channels == 3 ? 2 - c : 0;
-          const float raw = static_cast<float>(px[source]);
-          if (!std::isfinite(raw)) {
-            saturated = true;
-            image.pixels[i * image.channels + c] = 0.0f;
-            continue;
-          }
-          if (saturation > 0 && raw >= saturation) saturated = true;
-          image.pixels[i * image.channels + c] =
-              bit_depth == 8 ? srgb_table[static_cast<int>(raw)]
-                             : static_cast<float>(raw / full_scale);
-        }
-        image.saturated[i] = saturated;
-      }
+  for (int y = 0; y < image.height; ++y) {
+    // OpenCV stores BGR(A); Image is RGB.
+    switch (decoded.depth()) {
+      case CV_8U:
+        ConvertRow(decoded.ptr<std::uint8_t>(y), in_channels, true, y, scale, &image);
+        break;
+      case CV_16U:
+        ConvertRow(decoded.ptr<std::uint16_t>(y), in_channels, true, y, scale, &image);
+        break;
+      default:
+        ConvertRow(decoded.ptr<float>(y), in_channels, true, y, scale, &image);
+        break;
     }
-  };
-  switch (decoded.depth()) {
-    case CV_8U:
-      convert(std::uint8_t{});
-      break;
-    case CV_16U:
-      convert(std::uint16_t{});
-      break;
-    default:
-      convert(float{});
-      break;
   }
+  return image;
+}
+
+// A PNG that libpng can hand over row by row (PngLayout::RowReadable): each
+// row converted as it is decoded, so no whole decoded copy is ever held.
+absl::StatusOr<Image> DecodePngByRows(const std::string& bytes, const DecodeOptions& options,
+                                      const PngLayout& layout) {
+  const int in_channels = layout.SamplesPerPixel();
+  Image image = EmptyImage(layout.width, layout.height, in_channels >= 3 ? 3 : 1, "png",
+                           layout.bit_depth);
+  const RowScale scale(layout.bit_depth, layout.bit_depth == 8 ? 255.0 : 65535.0, options);
+  absl::Status s = ReadPngRows(
+      reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), layout,
+      [&](int y, const unsigned char* samples) {
+        if (layout.bit_depth == 8) {
+          ConvertRow(samples, in_channels, false, y, scale, &image);
+        } else {
+          ConvertRow(reinterpret_cast<const std::uint16_t*>(samples), in_channels, false, y, scale,
+                     &image);
+        }
+        return absl::OkStatus();
+      });
+  if (!s.ok()) return s;
   return image;
 }
 
@@ -400,6 +447,9 @@ absl::StatusOr<Image> DecodeImage(const std::string& bytes,
   const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
   if (header->format == "png") {
     if (absl::Status s = CheckPngComplete(p, bytes.size()); !s.ok()) return s;
+    PngLayout layout;
+    if (absl::Status s = ReadPngLayout(p, bytes.size(), &layout); !s.ok()) return s;
+    if (layout.RowReadable()) return DecodePngByRows(bytes, options, layout);
   }
   // libjpeg only warns about a truncated stream and fills the missing rows
   // with grey, so OpenCV would return made-up pixels: require the end-of-image

@@ -245,7 +245,7 @@ TEST(DecodeTest, SaturationMaskAtFormatMaximum) {
   for (EncodeFormat format :
        {EncodeFormat::kPng16, EncodeFormat::kTiff16, EncodeFormat::kPng8}) {
     const Image decoded = Decode(Encode(original, format));
-    ASSERT_EQ(decoded.saturated.size(), 30u);
+    ASSERT_FALSE(decoded.saturated.empty());
     EXPECT_TRUE(decoded.IsSaturated(4, 0));
     EXPECT_TRUE(decoded.IsSaturated(2, 1));
     if (format != EncodeFormat::kPng8) {
@@ -449,13 +449,46 @@ TEST(EncodeTest, RejectsMalformedImagesAndParsesFormats) {
   EXPECT_FALSE(ParseEncodeFormat("bmp").ok());
 }
 
+TEST(SaturationMaskTest, HoldsOnlyTheRowsWithAFlag) {
+  SaturationMask mask;
+  EXPECT_TRUE(mask.empty());
+  EXPECT_EQ(mask.Row(3), nullptr);
+  EXPECT_FALSE(mask.At(2, 3));
+  EXPECT_EQ(mask.Count(), 0);
+  mask.Mark(2, 3, 8, 5);
+  mask.Mark(7, 3, 8, 5);
+  mask.Mark(0, 1, 8, 5);
+  EXPECT_FALSE(mask.empty());
+  EXPECT_EQ(mask.Row(0), nullptr);
+  EXPECT_EQ(mask.Row(2), nullptr);
+  EXPECT_EQ(mask.Row(4), nullptr);
+  ASSERT_NE(mask.Row(3), nullptr);
+  EXPECT_EQ(mask.Row(3)[2], 1);
+  EXPECT_EQ(mask.Row(3)[3], 0);
+  EXPECT_TRUE(mask.At(7, 3));
+  EXPECT_TRUE(mask.At(0, 1));
+  EXPECT_FALSE(mask.At(1, 1));
+  EXPECT_EQ(mask.Count(), 3);
+  // The same flags marked in another order are the same mask.
+  SaturationMask other;
+  other.Mark(0, 1, 8, 5);
+  other.Mark(7, 3, 8, 5);
+  EXPECT_FALSE(other == mask);
+  other.Mark(2, 3, 8, 5);
+  EXPECT_TRUE(other == mask);
+  mask.clear();
+  EXPECT_TRUE(mask.empty());
+  EXPECT_EQ(mask.Count(), 0);
+  EXPECT_FALSE(mask == other);
+}
+
 TEST(LuminanceTest, Rec709Weights) {
   Image rgb;
   rgb.width = 4;
   rgb.height = 1;
   rgb.channels = 3;
   rgb.pixels = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0.5f, 0.5f, 0.5f};
-  rgb.saturated = {0, 1, 0, 0};
+  rgb.MarkSaturated(1, 0);
   rgb.format = "png";
   rgb.bit_depth = 16;
   const Image y = Luminance(rgb);
@@ -466,6 +499,8 @@ TEST(LuminanceTest, Rec709Weights) {
   EXPECT_FLOAT_EQ(y.pixels[2], 0.0722f);
   EXPECT_FLOAT_EQ(y.pixels[3], 0.5f);  // the weights sum to 1
   EXPECT_EQ(y.saturated, rgb.saturated);
+  EXPECT_TRUE(y.IsSaturated(1, 0));
+  EXPECT_EQ(y.SaturatedCount(), 1);
   EXPECT_EQ(y.format, "png");
   EXPECT_EQ(y.bit_depth, 16);
 

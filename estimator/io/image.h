@@ -9,6 +9,36 @@
 
 namespace weavefit {
 
+// Which pixels of a w×h image are saturated, stored by row: only a row with
+// a saturated pixel holds flags (one byte per pixel), so a photograph with a
+// few clipped glints carries a few rows, not a second full-size plane (on
+// 12 Mpx that plane is 12.6 MB, a quarter of the float image).
+class SaturationMask {
+ public:
+  SaturationMask() = default;
+  // Any flags set with Mark (x, y in the image), all clear before.
+  void Mark(int x, int y, int width, int height);
+  // Row y's flags (`width` bytes), or nullptr when none in the row is set.
+  const std::uint8_t* Row(int y) const {
+    return row_at_.empty() || row_at_[y] < 0 ? nullptr
+                                             : flags_.data() + static_cast<std::size_t>(row_at_[y]) * width_;
+  }
+  bool At(int x, int y) const {
+    const std::uint8_t* row = Row(y);
+    return row != nullptr && row[x] != 0;
+  }
+  // No pixel flagged.
+  bool empty() const { return flags_.empty(); }
+  std::int64_t Count() const;
+  void clear() { *this = SaturationMask(); }
+  bool operator==(const SaturationMask& other) const;
+
+ private:
+  int width_ = 0;
+  std::vector<std::int32_t> row_at_;  // per row: its slot in flags_, or -1
+  std::vector<std::uint8_t> flags_;   // width_ bytes per slot
+};
+
 // A linear-radiance image, row-major, channels interleaved (RGB order).
 // Values are in the file's range divided by its maximum (1.0 = full scale
 // for integer formats; EXR values as stored).
@@ -17,18 +47,16 @@ struct Image {
   int height = 0;
   int channels = 0;
   std::vector<float> pixels;
-  // One flag per pixel: any channel at or above the saturation level.
-  std::vector<std::uint8_t> saturated;
+  // Pixels with any channel at or above the saturation level.
+  SaturationMask saturated;
   std::string format;  // "png", "tiff", "jpeg", "exr", or "" when synthetic
   int bit_depth = 32;  // of the source file's samples
 
   float At(int x, int y, int c = 0) const {
     return pixels[(static_cast<std::size_t>(y) * width + x) * channels + c];
   }
-  bool IsSaturated(int x, int y) const {
-    return !saturated.empty() &&
-           saturated[static_cast<std::size_t>(y) * width + x] != 0;
-  }
+  bool IsSaturated(int x, int y) const { return saturated.At(x, y); }
+  void MarkSaturated(int x, int y) { saturated.Mark(x, y, width, height); }
   std::int64_t SaturatedCount() const;
 };
 

@@ -750,7 +750,11 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
   return EstimateFromLuminance(image, acquisition, options, std::move(estimate), clock);
 }
 
-absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
+namespace {
+
+// Decodes `bytes` and runs the pipeline; `release`, when given, is the
+// caller's copy of the bytes, emptied once decoded.
+absl::StatusOr<Estimate> DecodeAndEstimate(const std::string& bytes, std::string* release,
                                            const Acquisition& acquisition,
                                            const EstimateOptions& options) {
   if (absl::Status s = acquisition.Validate(); !s.ok()) return s;
@@ -762,11 +766,26 @@ absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
   decode.saturation_level = acquisition.saturation_level;
   decode.max_pixels = options.max_pixels;
   absl::StatusOr<Image> image = DecodeImage(bytes, decode);
+  if (release != nullptr) std::string().swap(*release);
   if (!image.ok()) return image.status();
   if (absl::Status s = clock.Lap("decode"); !s.ok()) return s;
   estimate.image = {image->width, image->height, image->channels, image->format,
                     image->bit_depth, image->SaturatedCount()};
   return EstimateFromLuminance(*image, acquisition, options, std::move(estimate), clock);
+}
+
+}  // namespace
+
+absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
+                                           const Acquisition& acquisition,
+                                           const EstimateOptions& options) {
+  return DecodeAndEstimate(bytes, nullptr, acquisition, options);
+}
+
+absl::StatusOr<Estimate> EstimateFromBytes(std::string&& bytes, const Acquisition& acquisition,
+                                           const EstimateOptions& options) {
+  std::string owned = std::move(bytes);
+  return DecodeAndEstimate(owned, &owned, acquisition, options);
 }
 
 }  // namespace weavefit

@@ -154,6 +154,11 @@ struct Estimate {
 absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
                                            const Acquisition& acquisition,
                                            const EstimateOptions& options);
+// The same, releasing the file's bytes as soon as they are decoded: the
+// pipeline then holds the decoded image alone (a 12 Mpx 16-bit PNG is 14 MB
+// beside the 50 MB image).
+absl::StatusOr<Estimate> EstimateFromBytes(std::string&& bytes, const Acquisition& acquisition,
+                                           const EstimateOptions& options);
 
 // The same from a decoded image (any number of channels).
 absl::StatusOr<Estimate> EstimateFromImage(const Image& image,

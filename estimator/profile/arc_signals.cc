@@ -116,10 +116,10 @@ absl::StatusOr<ArcSignals> ExtractArcSignals(const Image& luminance,
       out.values[at] = static_cast<float>(
           (1.0 - ty) * ((1.0 - tx) * top[x0] + tx * top[x0 + 1]) +
           ty * ((1.0 - tx) * bottom[x0] + tx * bottom[x0 + 1]));
-      if (!luminance.saturated.empty()) {
-        const std::uint8_t* m0 = &luminance.saturated[static_cast<std::size_t>(y0) * luminance.width];
-        const std::uint8_t* m1 = m0 + luminance.width;
-        if (m0[x0] || m0[x0 + 1] || m1[x0] || m1[x0 + 1]) out.valid[at] = 0;
+      const std::uint8_t* m0 = luminance.saturated.Row(y0);
+      const std::uint8_t* m1 = luminance.saturated.Row(y0 + 1);
+      if ((m0 != nullptr && (m0[x0] || m0[x0 + 1])) || (m1 != nullptr && (m1[x0] || m1[x0 + 1]))) {
+        out.valid[at] = 0;
       }
     }
   }
@@ -171,8 +171,8 @@ absl::StatusOr<ArcPixels> ExtractArcPixels(const Image& luminance, const Cylinde
         const std::size_t at = static_cast<std::size_t>(ya) * luminance.width + xx;
         const std::size_t below = at + luminance.width;
         sum += (1.0 - f) * luminance.pixels[at] + f * luminance.pixels[below];
-        ok = ok && (luminance.saturated.empty() ||
-                    (!(luminance.saturated[at] && f < 1.0) && !(luminance.saturated[below] && f > 0.0)));
+        ok = ok && !(f < 1.0 && luminance.IsSaturated(xx, ya)) &&
+             !(f > 0.0 && luminance.IsSaturated(xx, ya + 1));
         // Signed distance of the point on the line from the axis.
         offset += (xx - axis) * cos_t + (y_line - y0) * sin_t;
       }

@@ -173,9 +173,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     }
     const std::size_t at0 = static_cast<std::size_t>(block) * width + half_span;
     const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
-    const std::uint8_t* mask = luminance.saturated.empty()
-                                   ? nullptr
-                                   : &luminance.saturated[static_cast<std::size_t>(y) * luminance.width];
+    const std::uint8_t* mask = luminance.saturated.Row(y);
     const int b0 = static_cast<int>(base);
     const int dx_lo = std::max(-half_span, -b0);
     const int dx_hi = std::min(half_span, luminance.width - 1 - b0);

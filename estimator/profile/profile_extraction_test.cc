@@ -45,7 +45,6 @@ Image SyntheticImage(const CylinderGeometry& g, const Projection& projection,
   image.height = 160;
   image.channels = 1;
   image.pixels.resize(static_cast<std::size_t>(image.width) * image.height);
-  image.saturated.assign(image.pixels.size(), 0);
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, kNoise);
   for (int y = 0; y < image.height; ++y) {
@@ -239,12 +238,12 @@ TEST(ProfileExtractionTest, SaturatedPixelsAreExcludedAndCounted) {
       const double phi = AzimuthFromOffset(g.NormalisedOffset(x, y), projection);
       if (y % 2 == 0 && phi >= 10.0 * kDeg && phi < 15.0 * kDeg) {
         image.pixels[i] = 1.0f;
-        image.saturated[i] = 1;
+        image.MarkSaturated(x, y);
         ++on_cylinder;
       }
       if (std::isnan(phi) && x % 7 == 0 && y % 5 == 0) {
         image.pixels[i] = 1.0f;
-        image.saturated[i] = 1;
+        image.MarkSaturated(x, y);
       }
     }
   }

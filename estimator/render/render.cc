@@ -338,7 +338,6 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
   std::mt19937 rng(scene.seed ^ 0x9e3779b9u);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double levels = scene.quantisation_bits > 0 ? std::ldexp(1.0, scene.quantisation_bits) - 1 : 0.0;
-  image.saturated.assign(static_cast<std::size_t>(image.width) * image.height, 0);
   for (std::size_t i = 0; i < image.pixels.size(); ++i) {
     double v = image.pixels[i];
     if (scene.photons_full_scale > 0) {
@@ -348,7 +347,10 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
     v += scene.read_noise * normal(rng);
     v = std::clamp(v, 0.0, 1.0);
     if (levels > 0) v = std::round(v * levels) / levels;
-    if (v >= 1.0) image.saturated[i / channels] = 1;
+    if (v >= 1.0) {
+      image.MarkSaturated(static_cast<int>(i / channels % image.width),
+                          static_cast<int>(i / channels / image.width));
+    }
     image.pixels[i] = static_cast<float>(v);
   }
 
