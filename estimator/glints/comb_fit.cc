@@ -59,12 +59,32 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
   const int nodes = pieces / stride + 1;
   double g[kMaxNodes], h[kMaxNodes], pdf[kMaxNodes], cdf[kMaxNodes];
   double dg[kMaxNodes][3], dh[kMaxNodes][3];  // by m, λ, c
+  // |arctan(m·cos θ)| ≤ arctan|m|: a bin whose mirror offset lies beyond
+  // that and 8σ more at both ends (lhs is monotonic across a bin) is skipped
+  // before any trigonometry.
+  {
+    const int last = bin.first_node + (nodes - 1) * stride;
+    const double reach = std::atan(std::fabs(m)) + 8.0 * sigma;
+    const double lo = std::min(row.node_lhs[bin.first_node], row.node_lhs[last]) - delta;
+    const double hi = std::max(row.node_lhs[bin.first_node], row.node_lhs[last]) - delta;
+    if (lo > reach || hi < -reach) return 0.0;
+  }
+  // The nodes are evenly spaced in s, so cos θ and sin θ follow by rotation
+  // from the first node's.
+  const double theta0 = k * (row.node_s[bin.first_node] + c);
+  const double step =
+      nodes > 1 ? k * (row.node_s[bin.first_node + stride] - row.node_s[bin.first_node]) : 0.0;
+  const double cos_step = std::cos(step), sin_step = std::sin(step);
+  double cos_t = std::cos(theta0), sin_t = std::sin(theta0);
   bool above = true, below = true;
   for (int n = 0; n < nodes; ++n) {
     const int i = bin.first_node + n * stride;
     const double arc = row.node_s[i] + c;
-    const double theta = k * arc;
-    const double cos_t = std::cos(theta), sin_t = std::sin(theta);
+    if (n > 0) {
+      const double next_cos = cos_t * cos_step - sin_t * sin_step;
+      sin_t = sin_t * cos_step + cos_t * sin_step;
+      cos_t = next_cos;
+    }
     h[n] = m * cos_t;
     g[n] = row.node_lhs[i] - delta - std::atan(h[n]);
     above = above && g[n] > 8.0 * sigma;
@@ -83,6 +103,13 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
   const double norm = 1.0 / (sigma * std::sqrt(2.0 * M_PI));
   for (int n = 0; n < nodes; ++n) {
     const double z = g[n] / sigma;
+    // Beyond 8σ the Gaussian is below 1e-14 of its peak and its integral
+    // ±1/2 to 1e-15 (the pair test below already drops such pieces).
+    if (std::fabs(z) > 8.0) {
+      pdf[n] = 0.0;
+      cdf[n] = z > 0.0 ? 0.5 : -0.5;
+      continue;
+    }
     pdf[n] = norm * std::exp(-0.5 * z * z);
     cdf[n] = 0.5 * std::erf(z * M_SQRT1_2);
   }
