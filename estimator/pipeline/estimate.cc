@@ -351,14 +351,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
       if (!near && starts.size() < 3) starts.push_back(c);
     }
   }
-  // Balanced mode fits at most 16 rows, accurate mode all the options allow
-  // (32 by default): twice the rows halve the fit's statistical variance,
-  // but on the fixtures that part is already below the model floors
-  // (CombFitOptions::slope_floor, wavelength_floor), and they double its time.
-  CombFitOptions comb_options = options.comb;
-  if (options.mode == Mode::kBalanced) comb_options.max_rows = std::min(comb_options.max_rows, 16);
   const double needed =
-      period->resolved ? comb_options.min_explained : comb_options.min_explained_alone;
+      period->resolved ? options.comb.min_explained : options.comb.min_explained_alone;
   std::string comb_failure;
   std::optional<CombFitResult> best;
   // The signals over the comb's wider range, along the rows the period
@@ -371,7 +365,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   for (double start : starts) {
     absl::StatusOr<CombFitResult> comb =
         wide_signals.ok() ? FitCombOverLobe(luminance, cylinder, projection, wide, *wide_signals,
-                                            model, start, comb_options)
+                                            model, start, options.comb)
                           : absl::StatusOr<CombFitResult>(wide_signals.status());
     if (comb.ok() && comb->converged && comb->explained >= needed &&
         std::fabs(comb->wavelength_mm / start - 1.0) < 0.05 &&
@@ -389,7 +383,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     }
   }
   if (best) {
-    ApplyCombFit(*best, comb_options, acquisition, peaks.mirror_rad, estimate);
+    ApplyCombFit(*best, options.comb, acquisition, peaks.mirror_rad, estimate);
     return;
   }
   if (!period->resolved) {

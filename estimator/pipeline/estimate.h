@@ -49,7 +49,7 @@ struct EstimateOptions {
   ProfileOptions profile;
   PeakPickingOptions peaks;
   GlintPeriodOptions glints;
-  CombFitOptions comb;  // balanced mode fits at most 16 of its max_rows
+  CombFitOptions comb;
   int fit_max_iterations = 100;  // accurate mode's least-squares fits
   // Also return the curves a fit plot shows (Estimate::curves): the profile
   // as peak picking smoothed it and each model's least-squares fit to it (in
