@@ -203,6 +203,61 @@ TEST(CombFitTest, WrongStatedPhaseAngleIsReported) {
   EXPECT_NEAR(e.peak_spacing_rad.value / kDeg, r.truth.peak_spacing_deg, 0.15);
 }
 
+// The thread period from the glints along the lobe's rows, as the pipeline
+// searches it (EstimateWavelength): detection, profile, peaks, then
+// ExtractArcSignals over 0.9 of the half spacing and EstimateGlintPeriod.
+absl::StatusOr<GlintPeriodResult> PeriodOf(const Rendered& rendered) {
+  const Image luminance = Luminance(rendered.image);
+  const Acquisition acquisition = Lab(10.0);
+  const Projection projection = acquisition.GetProjection();
+  CylinderDetectionOptions detection;
+  detection.phase_angle_rad = acquisition.phase_angle_rad;
+  detection.projection = projection;
+  absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
+  if (!cylinder.ok()) return cylinder.status();
+  absl::StatusOr<Profile> profile = ExtractProfile(luminance, *cylinder, projection, ProfileOptions());
+  if (!profile.ok()) return profile.status();
+  absl::StatusOr<PeakPickingResult> peaks =
+      PickPeaks(*profile, acquisition.phase_angle_rad, projection, PeakPickingOptions());
+  if (!peaks.ok()) return peaks.status();
+  GlintModel model;
+  model.max_slope = peaks->max_slope;
+  model.max_slope_stderr = peaks->max_slope_stderr;
+  model.phase_angle_rad = acquisition.phase_angle_rad;
+  model.projection = projection;
+  model.mm_per_px = projection.radius_mm / cylinder->radius_px;
+  model.pixel_noise = profile->background_noise;
+  ArcSignalOptions arc;
+  arc.from_rad = peaks->mirror_rad - 0.45 * peaks->spacing_rad;
+  arc.to_rad = peaks->mirror_rad + 0.45 * peaks->spacing_rad;
+  arc.max_rows = 192;
+  absl::StatusOr<ArcSignals> signals = ExtractArcSignals(luminance, *cylinder, projection, arc);
+  if (!signals.ok()) return signals.status();
+  return EstimateGlintPeriod(*signals, model, GlintPeriodOptions());
+}
+
+// Glints clipped at the sensor's maximum are masked in the arc signals; each
+// short masked run still counts as one glint, so an overexposed photograph
+// keeps its period (before, its glint count fell to a fraction).
+TEST(GlintPeriodTest, ClippedGlintsStillCount) {
+  const Rendered& plain = GauzeRender();
+  RenderScene bright = GauzeScene();
+  bright.exposure = 25.0 * bright.exposure;
+  const Rendered clipped = Render(bright);
+  ASSERT_GT(clipped.image.SaturatedCount(), 20 * std::max<std::int64_t>(plain.image.SaturatedCount(), 10));
+  absl::StatusOr<GlintPeriodResult> a = PeriodOf(plain);
+  absl::StatusOr<GlintPeriodResult> b = PeriodOf(clipped);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ASSERT_TRUE(b.ok()) << b.status();
+  // On this small render the count alone may leave the period to the comb
+  // fit (GlintPeriodResult::candidate_mm); either way it must be found.
+  auto found = [](const GlintPeriodResult& r) { return r.resolved ? r.wavelength_mm : r.candidate_mm; };
+  // 379 and 275 glints here; 12 when clipped glints were dropped.
+  EXPECT_GT(b->glints_used, 0.7 * a->glints_used);
+  EXPECT_NEAR(found(*a), kWavelengthMm, 0.03 * kWavelengthMm);
+  EXPECT_NEAR(found(*b), kWavelengthMm, 0.03 * kWavelengthMm);
+}
+
 // ---------------------------------------------------------------------------
 // Stage by stage.
 

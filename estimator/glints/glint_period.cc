@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -20,9 +21,13 @@ struct RowGlints {
   std::vector<double> tan_lhs;  // tan of lhs, for RowScore
 };
 
+// The longest run of masked samples taken for one clipped glint (8 px at
+// the arc signals' half-pixel step); a longer run is a clipped patch.
+constexpr int kMaxClippedRun = 16;
+
 // Local maxima of a row standing glint_sigmas of pixel noise (and a share of
-// the row's range) above its median, refined to sub-sample positions;
-// maxima closer than `merge` samples keep the higher.
+// the row's range) above its median, refined to sub-sample positions, and
+// clipped glints; maxima closer than 3 samples keep the higher.
 std::vector<double> FindGlints(const float* v, const std::uint8_t* ok, int n,
                                double noise, const GlintPeriodOptions& options) {
   std::vector<double> row(v, v + n);
@@ -33,18 +38,36 @@ std::vector<double> FindGlints(const float* v, const std::uint8_t* ok, int n,
   std::vector<double> at;
   std::vector<double> height;
   for (int k = 1; k + 1 < n; ++k) {
-    if (!ok[k] || v[k] <= threshold || v[k] < v[k - 1] || v[k] <= v[k + 1]) continue;
-    const double d = v[k - 1] - 2.0 * v[k] + v[k + 1];
-    const double x = d < 0 ? k + std::clamp(0.5 * (v[k - 1] - v[k + 1]) / d, -0.5, 0.5) : k;
+    double x = k;
+    double peak = v[k];
+    if (!ok[k]) {
+      // A short run of masked samples is a glint clipped at the sensor's
+      // maximum (samples are masked only beside saturated pixels): one glint
+      // at the run's middle, higher than anything unclipped. Without it a
+      // photograph whose glints clip shows almost none.
+      const int start = k;
+      int end = k;
+      while (end < n && !ok[end]) ++end;
+      const int length = end - start;
+      x = start + 0.5 * (length - 1);
+      k = end - 1;
+      // A run cut by the row's ends has no middle.
+      if (length > kMaxClippedRun || end >= n || !ok[start - 1]) continue;
+      peak = std::numeric_limits<double>::infinity();
+    } else {
+      if (v[k] <= threshold || v[k] < v[k - 1] || v[k] <= v[k + 1]) continue;
+      const double d = v[k - 1] - 2.0 * v[k] + v[k + 1];
+      if (d < 0) x += std::clamp(0.5 * (v[k - 1] - v[k + 1]) / d, -0.5, 0.5);
+    }
     if (!at.empty() && x - at.back() < 3.0) {
-      if (v[k] > height.back()) {
+      if (peak > height.back()) {
         at.back() = x;
-        height.back() = v[k];
+        height.back() = peak;
       }
       continue;
     }
     at.push_back(x);
-    height.push_back(v[k]);
+    height.push_back(peak);
   }
   return at;
 }
