@@ -101,6 +101,7 @@ int RunEstimates(EstimateFlags flags) {
   std::vector<PhotographEstimate> photographs;
   std::vector<std::string> names;
   absl::Status first_error;
+  const std::vector<std::string> plot_names = PlotFileNames(flags.images);
   for (std::size_t index = 0; index < flags.images.size(); ++index) {
     const std::string& image = flags.images[index];
     ReportRow row;
@@ -114,7 +115,8 @@ int RunEstimates(EstimateFlags flags) {
       absl::StatusOr<v1::EstimateReply> estimated =
           EstimateInProcess(*header, *bytes, flags.profile_csv);
       if (estimated.ok() && !flags.plot_dir.empty()) {
-        if (absl::Status s = PlotInto(flags.plot_dir, image, *bytes, &*estimated); !s.ok()) {
+        if (absl::Status s = PlotInto(flags.plot_dir, plot_names[index], image, *bytes, &*estimated);
+            !s.ok()) {
           return s;
         }
       }
@@ -196,7 +198,8 @@ void AddEstimateFlags(CLI::App* app, EstimateFlags* flags) {
   app->add_option("--profile-csv", flags->profile_csv,
                   "write the azimuthal profile (azimuth_deg,mean,stderr,count) of the last image");
   app->add_option("--plot", flags->plot_dir,
-                  "write a fit plot per image into this folder (DIR/<image stem>.png): the "
+                  "write a fit plot per image into this folder (DIR/<image stem>.png, made "
+                  "distinct where stems repeat): the "
                   "profile with its error band, every model's fit, the peaks, the residuals and "
                   "the photograph with the detected limbs");
 }
@@ -231,7 +234,8 @@ void AddSubmitFlags(CLI::App* app, SubmitFlags* flags) {
       ->capture_default_str();
   app->add_flag("--quiet", flags->quiet, "no progress or retry lines on stderr");
   app->add_option("--plot", flags->plot_dir,
-                  "write a fit plot per image into this folder (DIR/<image stem>.png; the daemon "
+                  "write a fit plot per image into this folder (DIR/<image stem>.png, made "
+                  "distinct where stems repeat; the daemon "
                   "returns the curves, the photograph is drawn from the local file)");
   Connection& c = flags->connection;
   app->add_option("--server", c.server,

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -253,23 +254,51 @@ absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& ima
   return absl::OkStatus();
 }
 
-std::string PlotPath(const std::string& dir, const std::string& image) {
-  std::string name = image.substr(image.find_last_of('/') + 1);
-  if (const std::size_t dot = name.find_last_of('.'); dot != std::string::npos && dot > 0) {
-    name = name.substr(0, dot);
+std::vector<std::string> PlotFileNames(const std::vector<std::string>& images) {
+  auto base = [](const std::string& image) { return image.substr(image.find_last_of('/') + 1); };
+  auto stem = [&](const std::string& image) {
+    std::string name = base(image);
+    if (const std::size_t dot = name.find_last_of('.'); dot != std::string::npos && dot > 0) {
+      name = name.substr(0, dot);
+    }
+    return name;
+  };
+  auto flat = [](std::string path) {
+    while (path.rfind("./", 0) == 0) path = path.substr(2);
+    while (!path.empty() && path.front() == '/') path = path.substr(1);
+    std::replace(path.begin(), path.end(), '/', '_');
+    return path;
+  };
+  // Each rule in turn, for the names the ones before it left repeated.
+  const std::vector<std::function<std::string(const std::string&)>> rules = {stem, base, flat};
+  std::vector<std::string> names(images.size());
+  std::vector<bool> settled(images.size(), false);
+  for (std::size_t r = 0; r <= rules.size(); ++r) {
+    std::map<std::string, int> count;
+    for (std::size_t i = 0; i < images.size(); ++i) {
+      if (!settled[i] && r < rules.size()) names[i] = rules[r](images[i]);
+      // Past the rules (the same path given twice), the input's position.
+      if (!settled[i] && r == rules.size()) names[i] = absl::StrCat(flat(images[i]), "_", i + 1);
+      ++count[names[i]];
+    }
+    for (std::size_t i = 0; i < images.size(); ++i) {
+      if (!settled[i]) settled[i] = count[names[i]] == 1 || r == rules.size();
+    }
   }
-  return absl::StrCat(dir, "/", name, ".png");
+  for (std::string& name : names) name += ".png";
+  return names;
 }
 
-absl::Status PlotInto(const std::string& dir, const std::string& image,
-                      const std::string& image_bytes, v1::EstimateReply* reply) {
+absl::Status PlotInto(const std::string& dir, const std::string& file_name,
+                      const std::string& image, const std::string& image_bytes,
+                      v1::EstimateReply* reply) {
   if (mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST) {
     return absl::InvalidArgumentError(absl::StrCat("cannot make the plot folder ", dir));
   }
   const std::string name = image.substr(image.find_last_of('/') + 1);
   const std::string title = absl::StrCat(name, "  —  ", v1::ProfileModel_Name(reply->model()),
                                          " (", reply->method(), ")");
-  absl::Status written = WriteFitPlot(*reply, image_bytes, title, PlotPath(dir, image));
+  absl::Status written = WriteFitPlot(*reply, image_bytes, title, dir + "/" + file_name);
   reply->clear_curves();
   if (!written.ok()) {
     return absl::Status(written.code(), absl::StrCat("plot: ", written.message()));

@@ -29,16 +29,21 @@ absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
 absl::Status WriteFitPlot(const v1::EstimateReply& reply, const std::string& image_bytes,
                           const std::string& title, const std::string& png_path);
 
-// Where PlotInto puts the plot of `image`: DIR/<the image's file stem>.png
-// (two images with one stem share it: the later plot replaces the earlier).
-std::string PlotPath(const std::string& dir, const std::string& image);
+// The plot file name of each of `images` (same order), distinct within the
+// batch: the file stem (`a/x.png` -> `x.png`); where stems repeat, the stem
+// and extension (`x.exr.png`); where those repeat too (one name in two
+// folders), the path with '/' as '_' (`a_x.png.png`, `b_x.png.png`). Names
+// depend on the whole list only, so a re-run over the same inputs writes the
+// same files.
+std::vector<std::string> PlotFileNames(const std::vector<std::string>& images);
 
 // The plot of one photograph for `weavefit estimate/submit --plot DIR`: makes
-// DIR if needed, writes PlotPath(dir, image), titled with the file name, the
-// model and the method, and then drops the curves from the reply (they are
-// in the plot; printed or saved results stay small).
-absl::Status PlotInto(const std::string& dir, const std::string& image,
-                      const std::string& image_bytes, v1::EstimateReply* reply);
+// DIR if needed, writes DIR/`file_name` (from PlotFileNames), titled with the
+// image's file name, the model and the method, and then drops the curves from
+// the reply (they are in the plot; printed or saved results stay small).
+absl::Status PlotInto(const std::string& dir, const std::string& file_name,
+                      const std::string& image, const std::string& image_bytes,
+                      v1::EstimateReply* reply);
 
 }  // namespace weavefit
 

@@ -6,7 +6,10 @@
 
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <set>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "estimator/pipeline/estimate.h"
 #include "proto/weavefit/v1/convert.h"
@@ -63,6 +66,26 @@ TEST(FitPlotTest, WritesChartAndThumbnailSideBySide) {
   EXPECT_LE(plot.cols, 1100 + 560 + 16);
   EXPECT_EQ(WriteFitPlot(ReplyFor(bytes, 10.0, false), bytes, "x", out).code(),
             absl::StatusCode::kFailedPrecondition);
+}
+
+TEST(PlotFileNamesTest, DistinctWithinTheBatchAndStable) {
+  // Unique stems keep the plain stem.
+  EXPECT_EQ(PlotFileNames({"a/x.png", "b/y.tiff", "z.exr"}),
+            (std::vector<std::string>{"x.png", "y.png", "z.png"}));
+  // One stem in two formats: the extension tells them apart; the rest stay.
+  EXPECT_EQ(PlotFileNames({"x.png", "x.exr", "y.png"}),
+            (std::vector<std::string>{"x.png.png", "x.exr.png", "y.png"}));
+  // One file name in two folders: the path.
+  EXPECT_EQ(PlotFileNames({"./a/x.png", "/data/b/x.png"}),
+            (std::vector<std::string>{"a_x.png.png", "data_b_x.png.png"}));
+  // A stem that equals another input's stem-with-extension does not collide.
+  const std::vector<std::string> tricky = PlotFileNames({"x.exr.png", "a/x.exr", "b/x.png"});
+  EXPECT_EQ(std::set<std::string>(tricky.begin(), tricky.end()).size(), 3u);
+  // The same path twice (a joint call may repeat one): numbered.
+  const std::vector<std::string> twice = PlotFileNames({"x.png", "x.png"});
+  EXPECT_NE(twice[0], twice[1]);
+  // Only the list decides: the same inputs give the same names.
+  EXPECT_EQ(PlotFileNames({"x.png", "x.exr"}), PlotFileNames({"x.png", "x.exr"}));
 }
 
 }  // namespace

@@ -324,6 +324,8 @@ int RunSubmit(SubmitFlags flags) {
   std::size_t printed = 0;
   absl::Status write_error;
   BatchHooks hooks;
+  // Plot names over every input, skipped or not, so that a re-run keeps them.
+  const std::vector<std::string> plot_names = PlotFileNames(images);
   hooks.estimate = [&](std::size_t k) -> absl::StatusOr<v1::EstimateReply> {
     const std::string& image = images[todo[k]];
     absl::StatusOr<std::string> bytes = ReadFile(image);
@@ -334,7 +336,10 @@ int RunSubmit(SubmitFlags flags) {
     if (!flags.plot_dir.empty()) header->mutable_options()->set_include_curves(true);
     absl::StatusOr<v1::EstimateReply> reply = client->Estimate(*std::move(header), *bytes);
     if (reply.ok() && !flags.plot_dir.empty()) {
-      if (absl::Status s = PlotInto(flags.plot_dir, image, *bytes, &*reply); !s.ok()) return s;
+      if (absl::Status s = PlotInto(flags.plot_dir, plot_names[todo[k]], image, *bytes, &*reply);
+          !s.ok()) {
+        return s;
+      }
     }
     return reply;
   };
