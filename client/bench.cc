@@ -313,6 +313,10 @@ std::vector<SweepAxis> SweepAxes() {
        [](RenderScene& s, double a) { s.phase_angle_deg = a; }, false},
       {"tilt", "axis tilt, deg", {0, 1, 2, 3, 4, 5},
        [](RenderScene& s, double t) { s.axis_angle_deg = t; }, false},
+      // Overexposure: glints clip at the sensor's maximum, as they often do
+      // in the lab (issue 4); the saturated pixels are masked.
+      {"exposure", "exposure, times the default (glints clip)", {1, 10, 30, 100, 300},
+       [](RenderScene& s, double f) { s.exposure *= f; }, true},
   };
 }
 
@@ -341,7 +345,7 @@ absl::Status SweepChart(const std::string& out_dir, const std::vector<SweepPoint
     }
   }
   std::string body = absl::StrCat(
-      "set multiplot layout 2,3 title 'weavefit stability: ", ylabel,
+      "set multiplot layout 2,4 title 'weavefit stability: ", ylabel,
       " (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied "
       "at a time)'\nset grid\nset key top left\n");
   for (const SweepAxis& axis : axes) {
@@ -358,8 +362,8 @@ absl::Status SweepChart(const std::string& out_dir, const std::vector<SweepPoint
   }
   absl::StrAppend(&body, "unset multiplot\n");
   const std::string script = absl::StrCat(
-      data, "set terminal pngcairo size 1500,850 font ',10'\nset output '", out_dir, "/", stem,
-      ".png'\n", body, "set terminal svg size 1500,850\nset output '", out_dir, "/", stem,
+      data, "set terminal pngcairo size 1900,850 font ',10'\nset output '", out_dir, "/", stem,
+      ".png'\n", body, "set terminal svg size 1900,850\nset output '", out_dir, "/", stem,
       ".svg'\n", body);
   const std::string path = absl::StrCat(out_dir, "/", stem, ".gp");
   if (absl::Status s = WriteFile(path, script); !s.ok()) return s;

@@ -126,7 +126,7 @@ EOD
 $tilt_balanced << EOD
 0 0.0461933
 1 0.319186
-2 0.217917
+2 0.20853
 3 0.286494
 4 0.293747
 5 0.938365
@@ -134,14 +134,35 @@ EOD
 $tilt_accurate << EOD
 0 0.0461933
 1 0.319186
-2 0.217917
+2 0.20853
 3 0.286494
 4 0.322224
 5 0.92037
 EOD
-set terminal pngcairo size 1500,850 font ',10'
-set output 'docs/bench/sweep_error.png'
-set multiplot layout 2,3 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
+$exposure_fast << EOD
+1 0.944938
+10 3.49454
+30 12.7432
+100 3.64273
+300 10.4416
+EOD
+$exposure_balanced << EOD
+1 0.0461933
+10 0.0450269
+30 12.7432
+100 0.0907766
+300 10.4416
+EOD
+$exposure_accurate << EOD
+1 0.0461933
+10 0.0450269
+30 12.7432
+100 0.0907766
+300 10.4416
+EOD
+set terminal pngcairo size 1900,850 font ',10'
+set output '/tmp/sweep_D/sweep_error.png'
+set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
 set logscale x
@@ -174,10 +195,15 @@ set logscale y
 set yrange [0.005:30]
 set xlabel 'axis tilt, deg'
 plot $tilt_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $tilt_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $tilt_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
+set logscale x
+set logscale y
+set yrange [0.005:30]
+set xlabel 'exposure, times the default (glints clip)'
+plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
-set terminal svg size 1500,850
-set output 'docs/bench/sweep_error.svg'
-set multiplot layout 2,3 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
+set terminal svg size 1900,850
+set output '/tmp/sweep_D/sweep_error.svg'
+set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
 set logscale x
@@ -210,4 +236,9 @@ set logscale y
 set yrange [0.005:30]
 set xlabel 'axis tilt, deg'
 plot $tilt_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $tilt_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $tilt_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
+set logscale x
+set logscale y
+set yrange [0.005:30]
+set xlabel 'exposure, times the default (glints clip)'
+plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot

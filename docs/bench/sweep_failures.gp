@@ -145,9 +145,30 @@ $tilt_accurate << EOD
 4 0
 5 0
 EOD
-set terminal pngcairo size 1500,850 font ',10'
-set output 'docs/bench/sweep_failures.png'
-set multiplot layout 2,3 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
+$exposure_fast << EOD
+1 0
+10 0
+30 0.666667
+100 0.666667
+300 0.666667
+EOD
+$exposure_balanced << EOD
+1 0
+10 0
+30 0.666667
+100 0.333333
+300 0.666667
+EOD
+$exposure_accurate << EOD
+1 0
+10 0
+30 0.666667
+100 0.333333
+300 0.666667
+EOD
+set terminal pngcairo size 1900,850 font ',10'
+set output '/tmp/sweep_D/sweep_failures.png'
+set multiplot layout 2,4 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
 set logscale x
@@ -180,10 +201,15 @@ unset logscale y
 set yrange [-0.05:1.05]
 set xlabel 'axis tilt, deg'
 plot $tilt_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $tilt_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $tilt_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
+set logscale x
+unset logscale y
+set yrange [-0.05:1.05]
+set xlabel 'exposure, times the default (glints clip)'
+plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
-set terminal svg size 1500,850
-set output 'docs/bench/sweep_failures.svg'
-set multiplot layout 2,3 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
+set terminal svg size 1900,850
+set output '/tmp/sweep_D/sweep_failures.svg'
+set multiplot layout 2,4 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
 set logscale x
@@ -216,4 +242,9 @@ unset logscale y
 set yrange [-0.05:1.05]
 set xlabel 'axis tilt, deg'
 plot $tilt_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $tilt_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $tilt_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
+set logscale x
+unset logscale y
+set yrange [-0.05:1.05]
+set xlabel 'exposure, times the default (glints clip)'
+plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
