@@ -265,6 +265,9 @@ absl::Status PeakPickingOptions::Validate() const {
   if (!(search_half_width_deg > 1.0 && search_half_width_deg <= 80.0)) {
     return absl::InvalidArgumentError("search_half_width_deg must be in (1, 80]");
   }
+  if (!(max_clipped_lobe_share > 0.0 && max_clipped_lobe_share <= 1.0)) {
+    return absl::InvalidArgumentError("max_clipped_lobe_share must be in (0, 1]");
+  }
   if (!(lobe_smoothing_deg >= smoothing_deg && lobe_smoothing_deg <= 10.0)) {
     return absl::InvalidArgumentError("lobe_smoothing_deg must be in [smoothing_deg, 10]");
   }
@@ -309,9 +312,12 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // than a dip between two false peaks.
   std::vector<double> filled = raw;
   int clipped_bins = 0;
-  for (int i = 0; i < n; ++i) {
+  auto clipped = [&](int i) {
     const double total = profile.count[i] + profile.saturated[i];
-    if (total > 0 && profile.saturated[i] > 0.05 * total) {
+    return total > 0 && profile.saturated[i] > 0.05 * total;
+  };
+  for (int i = 0; i < n; ++i) {
+    if (clipped(i)) {
       ++clipped_bins;
       double level = raw[i];
       for (int k = std::max(0, i - 3); k <= std::min(n - 1, i + 3); ++k) level = std::max(level, raw[k]);
@@ -354,6 +360,9 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         "no specular lobe near half the phase angle: check the phase angle "
         "and that the cylinder is lit");
   }
+  int clipped_in_lobe = 0;
+  for (int i = lobe_lo; i <= lobe_hi; ++i) clipped_in_lobe += clipped(i);
+  const double clipped_lobe_share = static_cast<double>(clipped_in_lobe) / (lobe_hi - lobe_lo + 1);
   const int margin = static_cast<int>(std::ceil(2.0 * options.lobe_smoothing_deg * kDeg / bin)) + 2;
   lobe_lo = std::max(lo, lobe_lo - margin);
   lobe_hi = std::min(hi, lobe_hi + margin);
@@ -395,6 +404,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   const double sigma_bins = light_bins;
 
   PeakPickingResult result;
+  result.clipped_lobe_share = clipped_lobe_share;
   result.smoothing_rad = light_deg * kDeg;
   if (light_deg > options.smoothing_deg) {
     result.warnings.push_back(absl::StrFormat(

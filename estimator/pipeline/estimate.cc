@@ -659,6 +659,23 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                        estimate.profile.background_noise, options, &estimate);
     if (absl::Status s = clock.Lap("glints"); !s.ok()) return s;
   }
+  if (estimate.method != "comb-fit" && estimate.peak_spacing_rad.resolved &&
+      peaks->clipped_lobe_share > options.peaks.max_clipped_lobe_share) {
+    // Clipped over most of its width, the lobe is a plateau whose inner
+    // glints peak picking takes for the caustics (the bench sweep's
+    // overexposure axis: 8.5° read for 27°, outside its error): no number
+    // rather than a wrong one. The comb fit, which reads the glints
+    // themselves, is kept when it ran.
+    estimate.peak_spacing_rad = {};
+    estimate.max_slope = {};
+    estimate.wavelength_mm = {};
+    estimate.amplitude_mm = {};
+    estimate.warnings.push_back(absl::StrFormat(
+        "split unresolved: %.0f%% of the lobe's azimuth bins are clipped at the sensor's maximum, "
+        "so its caustic peaks cannot be read (the wavelength and amplitude, which lean on them, "
+        "neither); lower the exposure until the lobe is mostly unclipped",
+        100.0 * peaks->clipped_lobe_share));
+  }
   if (estimate.method != "comb-fit") {
     // The mirror azimuth should be half the phase angle (a smooth cylinder's
     // brightest column sits a little off it; allow a degree besides 3 σ).
