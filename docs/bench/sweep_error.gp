@@ -142,26 +142,19 @@ EOD
 $exposure_fast << EOD
 1 0.944938
 10 3.49454
-30 12.7432
-100 3.64273
-300 10.4416
 EOD
 $exposure_balanced << EOD
 1 0.0461933
 10 0.0450269
-30 12.7432
-100 0.0907766
-300 10.4416
+100 0.0547613
 EOD
 $exposure_accurate << EOD
 1 0.0461933
 10 0.0450269
-30 12.7432
-100 0.0907766
-300 10.4416
+100 0.0547613
 EOD
 set terminal pngcairo size 1900,850 font ',10'
-set output '/tmp/sweep_D/sweep_error.png'
+set output '/tmp/sweep_E/sweep_error.png'
 set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
@@ -202,7 +195,7 @@ set xlabel 'exposure, times the default (glints clip)'
 plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
 set terminal svg size 1900,850
-set output '/tmp/sweep_D/sweep_error.svg'
+set output '/tmp/sweep_E/sweep_error.svg'
 set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
