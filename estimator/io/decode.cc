@@ -198,13 +198,12 @@ Image EmptyImage(int width, int height, int channels, const std::string& format,
 // at or above `saturation` (0 = none) are flagged.
 struct RowScale {
   RowScale(int bit_depth, double full_scale, const DecodeOptions& options)
-      : bit_depth(bit_depth), full_scale(full_scale) {
+      : full_scale(full_scale) {
     saturation = options.saturation_level > 0 ? options.saturation_level
                                               : (bit_depth == 32 ? 0.0 : full_scale);
     const bool srgb = bit_depth == 8 && !options.pixels_linear;
     for (int v = 0; v < 256; ++v) table[v] = srgb ? SrgbToLinear(v / 255.0f) : v / 255.0f;
   }
-  int bit_depth;
   double full_scale;
   double saturation = 0.0;
   float table[256];
