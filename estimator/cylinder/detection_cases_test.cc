@@ -346,6 +346,30 @@ TEST(DarkLimbTest, InferredOnALargerPhotograph) {
   ExpectInferredDarkLimb(scene);
 }
 
+// Two renders whose terminator alone placed the dark limb 4.5 and 2.8 px
+// off: a faint grazing-scatter step at the terminator trades off against the
+// radius. The window by the lit limb, where that scatter rises as 1/cos φ,
+// pins it.
+TEST(DarkLimbTest, ScatterPinnedByTheLimbWindowInPerspective) {
+  RenderScene scene = DarkLimbScene(-120.0);
+  scene.center_x_px = 159.5;
+  scene.diffuse = 0.05;
+  scene.camera_distance_mm = 900.0;
+  scene.seed = 1;
+  ExpectInferredDarkLimb(scene);
+}
+
+TEST(DarkLimbTest, ScatterPinnedByTheLimbWindowOnAMidSizePhotograph) {
+  RenderScene scene = DarkLimbScene(100.0);
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.center_x_px = 319.5;
+  scene.radius_px = 256.0;
+  scene.diffuse = 0.03;
+  scene.seed = 2;
+  ExpectInferredDarkLimb(scene);
+}
+
 // A wide split lobe (m = 0.35 at α = 60°: caustics near 11° and 49°) with
 // both limbs seen against the background: both stay observed (the lobe's
 // position is the mean azimuth of its ends). When the lobe was placed by the

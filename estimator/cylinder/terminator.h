@@ -27,8 +27,12 @@ struct BackgroundLevel {
 // radiance there, across the rows between edges.top_row and bottom_row, up
 // to where the glints begin, as background + D·max(0, cos(φ − α)) (the
 // Lambertian term of DESIGN.md §3) and/or S·[cos(φ − α) > 0]·cos(α/2)/cos φ
-// (the grazing scatter), the second term only when it pays for itself (BIC),
-// each pixel integrated over its width, for radii around the first guess.
+// (the grazing scatter), the second term only when it pays for itself (BIC,
+// and at least a 3-sigma gain), each pixel integrated over its width, for
+// radii around the first guess. The same two terms are fitted, with an
+// offset of their own, to a window by the lit limb between it and the
+// lobe's glints, where 1/cos φ rises steeply: that pins S, which at the
+// terminator alone trades off against the radius.
 // Fails with INVALID_ARGUMENT when no such terminator explains the edge: no
 // lit term, glints right at the edge, or a residual far above the noise.
 absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
