@@ -580,8 +580,7 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     estimate.warnings.push_back(absl::StrCat(
         "the ", cylinder->left_observed ? "right" : "left",
         " limb is lost in darkness and was inferred from the lit limb and the terminator "
-        "(expect it within about 2 px, up to 4 px when the Lambertian and grazing-scatter "
-        "terms are comparable there); light the body or darken the background to see it"));
+        "(expect it within about 2 px); light the body or darken the background to see it"));
   }
   if (absl::Status s = clock.Lap("detect"); !s.ok()) return s;
 
