@@ -110,6 +110,14 @@ double Crossing(const std::vector<double>& profile, int a, int b,
   return a;
 }
 
+// At the limb toward the light, a rise inward of this share of the
+// surface's level above the background is a glint (see RefineEdge); a band
+// mean's noise and the cloth's texture rise by a few per cent.
+constexpr double kEdgeRise = 0.5;
+// From this phase angle on, the lobe's glints may reach the limb toward the
+// light (its outer caustic, at α/2 + arctan m, within a few pixels of it).
+constexpr double kGlintsReachLimbRad = 60.0 * M_PI / 180.0;
+
 // The limb to a fraction of a pixel: the band's pixels from two outside the
 // first estimate e0 to five inside are fitted, for edges e within a pixel of
 // it, as background outside and, over the covered part of each pixel, a
@@ -119,7 +127,7 @@ double Crossing(const std::vector<double>& profile, int a, int b,
 // the limb: sin φ = 1 − d/r. `inward` is +1 when the surface lies at larger
 // columns (a left limb), −1 otherwise. B and S enter linearly.
 double RefineEdge(const std::vector<double>& v, double background, double e0, int inward,
-                  double radius_px) {
+                  double radius_px, bool glints_may_reach) {
   const int n = static_cast<int>(v.size());
   const int x_first = static_cast<int>(std::floor(e0 - inward * 2.0 + 0.5));
   std::vector<int> xs;
@@ -128,6 +136,27 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
     if (x >= 0 && x < n) xs.push_back(x);
   }
   if (xs.size() < 6 || !(radius_px > 4.0)) return e0;
+  // Inside the limb toward the light the body and the grazing scatter only
+  // fall or hold inward (1/cos φ is largest at the limb). A rise inward is
+  // the specular lobe's glints, which reach that limb at large phase angles
+  // (the outer caustic lies 5 px inside a 256 px limb at α = 130°, and moved
+  // the fitted edge 0.4 px inward): with glints_may_reach, the window stops
+  // before it, keeping at least 4 pixels (2 outside). (At the other limb a
+  // rise is the terminator, 2 px inside it at α = 10°, which the window
+  // keeps as before.)
+  if (glints_may_reach) {
+    double low = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const double inside = inward > 0 ? xs[i] - 0.5 - e0 : e0 - xs[i] - 0.5;
+      if (inside < 1.0) continue;
+      const double level = v[xs[i]];
+      if (i >= 4 && level > low + kEdgeRise * std::max(low - background, 0.0)) {
+        xs.resize(i);
+        break;
+      }
+      low = std::min(low, level);
+    }
+  }
   const double r = radius_px;
   auto arc = [r](double d) { return std::asin(std::clamp(1.0 - d / r, -1.0, 1.0)); };
   double best_e = e0;
@@ -253,7 +282,13 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   for (double& s : samples) s = std::fabs(s - background);
   const double noise = std::max(1.4826 * Median(samples), 1e-6);
 
-  // Limbs per band of rows.
+  // Limbs per band of rows. With the phase angle known and at least
+  // kGlintsReachLimbRad, the lobe's glints may reach the limb toward the light.
+  const int light = std::isfinite(options.phase_angle_rad)
+                        ? (options.phase_angle_rad > 0 ? 1 : -1)
+                        : 0;
+  const bool glints_reach_limb =
+      light != 0 && std::fabs(options.phase_angle_rad) >= kGlintsReachLimbRad;
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
@@ -341,23 +376,34 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     // column above the threshold has the limb pixel (partly covered) at the
     // end of its box, two columns on; the first wholly covered pixel is the
     // third. Its own (unsmoothed) value is the level: any further in may be
-    // the lit surface beyond the terminator of an unlit limb.
-    auto inside_level = [&](int from, int step) {
-      const int x = std::clamp(from + 3 * step, 0, region.width - 1);
-      return profile[x];
+    // the lit surface beyond the terminator of an unlit limb. At the limb
+    // toward the light, where glints may reach it, a third column standing
+    // well above the next three is a glint, and their least is the level: a
+    // glint there (1 px inside the limb at α = 140°) made the half level one
+    // the smoothed profile never crossed, and the limb was put 4.7 px out.
+    auto inside_level = [&](int from, int step, bool glints_may_reach) {
+      const double level = profile[std::clamp(from + 3 * step, 0, region.width - 1)];
+      if (!glints_may_reach) return level;
+      double least = level;
+      for (int k = 4; k <= 6; ++k) {
+        least = std::min(least, profile[std::clamp(from + k * step, 0, region.width - 1)]);
+      }
+      return level > least + kEdgeRise * std::max(least - background, 0.0) ? least : level;
     };
-    const double left_half = 0.5 * (background + inside_level(left, +1));
-    const double right_half = 0.5 * (background + inside_level(right, -1));
+    const double left_half =
+        0.5 * (background + inside_level(left, +1, glints_reach_limb && light < 0));
+    const double right_half =
+        0.5 * (background + inside_level(right, -1, glints_reach_limb && light > 0));
     const double row = 0.5 * (y0 + y1 - 1);
     const double left_cross = Crossing(smoothed, std::max(left - 3, 0),
                                        std::min(left + 4, region.width - 1), left_half);
     const double right_cross = Crossing(smoothed, std::min(right + 3, region.width - 1),
                                         std::max(right - 4, 0), right_half);
     const double band_radius = 0.5 * (right_cross - left_cross);
-    left_points.push_back(
-        {row, region.x + RefineEdge(profile, background, left_cross, +1, band_radius)});
-    right_points.push_back(
-        {row, region.x + RefineEdge(profile, background, right_cross, -1, band_radius)});
+    left_points.push_back({row, region.x + RefineEdge(profile, background, left_cross, +1,
+                                                      band_radius, glints_reach_limb && light < 0)});
+    right_points.push_back({row, region.x + RefineEdge(profile, background, right_cross, -1,
+                                                       band_radius, glints_reach_limb && light > 0)});
   }
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(

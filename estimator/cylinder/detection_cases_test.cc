@@ -394,6 +394,40 @@ TEST(DetectionCasesTest, WideSplitLobeKeepsBothSeenLimbs) {
   EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, kLimbTolerancePx);
 }
 
+// --- Glints at the limb toward the light --------------------------------------
+
+// At large phase angles the lobe's outer caustic reaches the limb toward the
+// light: at α = 130° it lies 5 px inside a 256 px limb, at α = 140° 1.4 px.
+// The edge fit must stop short of those glints. Before it did, the lit limb
+// came out 0.44 px inward at 130° (which put the spacing 0.66° long, 4.7
+// stated errors) and 3.5 px outward at 140°.
+void ExpectLimbsWithGlintsAtTheLitLimb(double phase_angle_deg, double tolerance_px) {
+  RenderScene scene;
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.center_x_px = 319.5;
+  scene.radius_px = 256.0;
+  scene.phase_angle_deg = phase_angle_deg;
+  scene.seed = 1;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  const Limbs truth = TrueLimbs(rendered.truth);
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  EXPECT_NEAR(found.left, truth.left, tolerance_px);
+  EXPECT_NEAR(found.right, truth.right, tolerance_px);
+}
+
+TEST(DetectionCasesTest, GlintsAtTheLitLimbLeaveItInPlace) {
+  ExpectLimbsWithGlintsAtTheLitLimb(130.0, 0.15);
+  ExpectLimbsWithGlintsAtTheLitLimb(-130.0, 0.15);
+}
+
+TEST(DetectionCasesTest, AGlintOnePixelInsideTheLitLimbLeavesItInPlace) {
+  ExpectLimbsWithGlintsAtTheLitLimb(140.0, kLimbTolerancePx);
+}
+
 // Without a lit terminator (no Lambertian term) nothing places the unlit
 // limb, and nor is the lit limb seen beyond the lobe: a clear error, never a
 // confident wrong cylinder.
