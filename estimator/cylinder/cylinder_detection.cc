@@ -110,6 +110,15 @@ double Crossing(const std::vector<double>& profile, int a, int b,
   return a;
 }
 
+// The median of the finite values, or NaN when there are none.
+double MedianOfFinite(const std::vector<double>& values) {
+  std::vector<double> finite;
+  for (double v : values) {
+    if (std::isfinite(v)) finite.push_back(v);
+  }
+  return finite.empty() ? std::numeric_limits<double>::quiet_NaN() : Median(finite);
+}
+
 // At the limb toward the light, a rise inward of this share of the
 // surface's level above the background is a glint (see RefineEdge); a band
 // mean's noise and the cloth's texture rise by a few per cent.
@@ -117,6 +126,10 @@ constexpr double kEdgeRise = 0.5;
 // From this phase angle on, the lobe's glints may reach the limb toward the
 // light (its outer caustic, at α/2 + arctan m, within a few pixels of it).
 constexpr double kGlintsReachLimbRad = 60.0 * M_PI / 180.0;
+// From this phase angle on, the limb away from the light is in shadow over
+// the edge fit's window (the terminator, at 90° − |α| from it, lies R·(1 −
+// cos α) inside: 6 px at R = 256 px and 12°).
+constexpr double kShadowedLimbRad = 12.0 * M_PI / 180.0;
 
 // The limb to a fraction of a pixel: the band's pixels from two outside the
 // first estimate e0 to five inside are fitted, for edges e within a pixel of
@@ -125,9 +138,16 @@ constexpr double kGlintsReachLimbRad = 60.0 * M_PI / 180.0;
 // integrable 1/cos φ rise brightens the limb pixel itself and pushes a
 // half-level crossing outward). cos φ is taken from the distance d inside
 // the limb: sin φ = 1 − d/r. `inward` is +1 when the surface lies at larger
-// columns (a left limb), −1 otherwise. B and S enter linearly.
+// columns (a left limb), −1 otherwise. B and S enter linearly. At a limb that
+// is not `lit` (the one away from the light, in the cylinder's own shadow:
+// DESIGN.md §3 has no scatter there) S is held at zero: fitted, noise alone
+// makes it positive half the time (it is held at zero when negative), and
+// its rise at the limb then pulls the edge inward (0.03-0.07 px at a body
+// 0.02 above the background).
 double RefineEdge(const std::vector<double>& v, double background, double e0, int inward,
-                  double radius_px, bool glints_may_reach) {
+                  double radius_px, bool glints_may_reach, bool lit,
+                  double fixed_scatter = std::numeric_limits<double>::quiet_NaN(),
+                  double* scatter_out = nullptr) {
   const int n = static_cast<int>(v.size());
   const int x_first = static_cast<int>(std::floor(e0 - inward * 2.0 + 0.5));
   std::vector<int> xs;
@@ -135,6 +155,7 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
     const int x = x_first + inward * k;
     if (x >= 0 && x < n) xs.push_back(x);
   }
+  if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
   if (xs.size() < 6 || !(radius_px > 4.0)) return e0;
   // Inside the limb toward the light the body and the grazing scatter only
   // fall or hold inward (1/cos φ is largest at the limb). A rise inward is
@@ -160,6 +181,7 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   const double r = radius_px;
   auto arc = [r](double d) { return std::asin(std::clamp(1.0 - d / r, -1.0, 1.0)); };
   double best_e = e0;
+  double best_scatter = 0.0;
   double best_sse = std::numeric_limits<double>::infinity();
   // Edges within a pixel of e0: every 0.05 px, then every 0.005 px around
   // the best.
@@ -185,10 +207,19 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
     if (!(std::fabs(det) > 1e-12 * std::max(1.0, a11 * a22))) return;
     double body = (b1 * a22 - b2 * a12) / det;
     double scatter = (a11 * b2 - a12 * b1) / det;
-    if (scatter < 0.0) {  // scatter only brightens: a plain step then
+    // S held: zero at an unlit limb or when it comes out negative (scatter
+    // only brightens: a plain step then), or given.
+    bool held = true;
+    if (!lit) {
       scatter = 0.0;
-      body = b1 / a11;
+    } else if (std::isfinite(fixed_scatter)) {
+      scatter = fixed_scatter;
+    } else if (scatter < 0.0) {
+      scatter = 0.0;
+    } else {
+      held = false;
     }
+    if (held) body = (b1 - scatter * a12) / a11;
     double sse = 0.0;
     for (std::size_t i = 0; i < xs.size(); ++i) {
       const double res = y[i] - body * cov[i] - scatter * integral[i];
@@ -197,11 +228,13 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
     if (sse < best_sse) {
       best_sse = sse;
       best_e = e;
+      best_scatter = scatter;
     }
   };
   for (int step = -20; step <= 20; ++step) consider(e0 + 0.05 * step);
   const double coarse = best_e;
   for (int step = -10; step <= 10; ++step) consider(coarse + 0.005 * step);
+  if (scatter_out != nullptr) *scatter_out = best_scatter;
   return best_e;
 }
 
@@ -289,9 +322,23 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
                         : 0;
   const bool glints_reach_limb =
       light != 0 && std::fabs(options.phase_angle_rad) >= kGlintsReachLimbRad;
+  // The limb away from the light lies in the cylinder's own shadow.
+  const bool shadowed_limb = light != 0 && std::fabs(options.phase_angle_rad) >= kShadowedLimbRad;
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
+  // The bands where both limbs were found: their first limb estimates and
+  // profiles, and the scatter each limb's first fit gave.
+  struct BandEdges {
+    double row = 0.0;
+    double left_cross = 0.0;
+    double right_cross = 0.0;
+    double radius = 0.0;
+    std::vector<double> profile;
+  };
+  std::vector<BandEdges> bands_seen;
+  std::vector<double> left_scatter;
+  std::vector<double> right_scatter;
   std::vector<int> band_first(bands);
   std::vector<int> band_last(bands);
   std::vector<double> profile(region.width);
@@ -400,10 +447,37 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     const double right_cross = Crossing(smoothed, std::min(right + 3, region.width - 1),
                                         std::max(right - 4, 0), right_half);
     const double band_radius = 0.5 * (right_cross - left_cross);
-    left_points.push_back({row, region.x + RefineEdge(profile, background, left_cross, +1,
-                                                      band_radius, glints_reach_limb && light < 0)});
-    right_points.push_back({row, region.x + RefineEdge(profile, background, right_cross, -1,
-                                                       band_radius, glints_reach_limb && light > 0)});
+    bands_seen.push_back({row, left_cross, right_cross, band_radius, profile});
+  }
+  // Each limb to a fraction of a pixel (RefineEdge), twice: the grazing
+  // scatter's strength S is the same along a limb, so the second pass holds
+  // it at the median of the first pass's per-band fits. Fitted band by band,
+  // S is noisy and held at zero when negative, so noise alone biases it
+  // upward, and its rise at the limb pulls the edge inward (0.05 px on
+  // 320×240 renders).
+  for (int pass = 0; pass < 2; ++pass) {
+    const double left_s = pass == 0 ? std::numeric_limits<double>::quiet_NaN()
+                                    : MedianOfFinite(left_scatter);
+    const double right_s = pass == 0 ? std::numeric_limits<double>::quiet_NaN()
+                                     : MedianOfFinite(right_scatter);
+    left_points.clear();
+    right_points.clear();
+    for (const BandEdges& band : bands_seen) {
+      double s_left = 0.0;
+      double s_right = 0.0;
+      left_points.push_back(
+          {band.row, region.x + RefineEdge(band.profile, background, band.left_cross, +1,
+                                           band.radius, glints_reach_limb && light < 0,
+                                           !shadowed_limb || light < 0, left_s, &s_left)});
+      right_points.push_back(
+          {band.row, region.x + RefineEdge(band.profile, background, band.right_cross, -1,
+                                           band.radius, glints_reach_limb && light > 0,
+                                           !shadowed_limb || light > 0, right_s, &s_right)});
+      if (pass == 0) {
+        left_scatter.push_back(s_left);
+        right_scatter.push_back(s_right);
+      }
+    }
   }
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
