@@ -295,7 +295,23 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   auto azimuth_of = [&](double index) { return first + index * bin; };
 
   const std::vector<int> ones(profile.num_blocks, 1);
-  const std::vector<double> raw = MeanFromBlocks(profile, ones);
+  std::vector<double> raw = MeanFromBlocks(profile, ones);
+  // A bin with clipped pixels: its clipped pixels at their clipped values
+  // give a lower bound on its mean (Profile::saturated_sum). The mean of its
+  // unclipped pixels alone leaves out the brightest glints, and most where
+  // they crowd, at the caustics: an overexposed lobe then read 5-16 deg
+  // short. The bound, taken as the level, is still low, but by far less.
+  std::vector<double> clip_lift(n, 0.0);
+  if (profile.saturated_sum.size() == static_cast<std::size_t>(n)) {
+    for (int i = 0; i < n; ++i) {
+      const double count = profile.count[i];
+      const double clipped_px = profile.saturated[i];
+      if (!(clipped_px > 0.0) || !(count > 0.0)) continue;
+      const double sum = (raw[i] + profile.background) * count + profile.saturated_sum[i];
+      clip_lift[i] = std::max(0.0, sum / (count + clipped_px) - profile.background - raw[i]);
+      raw[i] += clip_lift[i];
+    }
+  }
   const double center = index_of(phase_angle_rad / 2.0);
   const double half = options.search_half_width_deg * kDeg / bin;
   const int lo = std::max(1, static_cast<int>(std::floor(center - half)));
@@ -458,6 +474,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     const int to = std::min(n - 1, read_hi + reach);
     std::vector<double> t = MeanFromBlocks(profile, w, from, to);
     for (int i = from; i <= to; ++i) {
+      t[i] += clip_lift[i];
       if (filled[i] != raw[i]) t[i] = filled[i];  // clipped bins as above
     }
     return Smooth(t, sigma, read_lo, read_hi);

@@ -42,8 +42,10 @@ struct PeakPickingOptions {
   // reports the split unresolved unless the comb fit reads the glints). In
   // the bench sweep's overexposure axis, 4–5 of the lobe's bins clip at 10×
   // the default exposure (answers right) and 62–66 at 30× (peak picking took
-  // inner glints for the caustics: 8.5° for 27°).
-  double max_clipped_lobe_share = 0.3;
+  // inner glints for the caustics: 8.5° for 27°). On 320×240 renders of the
+  // coarse gauze, 21–26 % of the lobe's bins clip at 25–30×, where the comb
+  // fit may fail and peak picking read 13.9° short on one of four.
+  double max_clipped_lobe_share = 0.2;
   // Resamples of row blocks for the standard errors (0 disables them).
   int bootstrap_samples = 50;
   std::uint32_t seed = 20030301;

@@ -59,6 +59,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   profile.block_sum.assign(static_cast<std::size_t>(num_bins) * options.num_blocks, 0.0);
   profile.block_count.assign(profile.block_sum.size(), 0.0);
   profile.saturated.assign(num_bins, 0.0);
+  profile.saturated_sum.assign(num_bins, 0.0);
 
   const int rows = geometry.bottom_row - geometry.top_row + 1;
   // φ as a function of the normalised offset, tabulated every 1/16 px (every
@@ -98,6 +99,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
   struct ColumnSums {
     std::vector<double> sum;        // per block and column offset
     std::vector<double> saturated;  // masked pixels
+    std::vector<double> saturated_sum;  // their values as decoded
     // Unmasked pixels: each run of them counts 1 over its span, kept as a
     // difference array per block (width + 1 entries) and summed at the end.
     std::vector<double> span_diff;
@@ -169,6 +171,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     if (cs.sum.empty()) {
       cs.sum.assign(static_cast<std::size_t>(options.num_blocks) * width, 0.0);
       cs.saturated.assign(cs.sum.size(), 0.0);
+      cs.saturated_sum.assign(cs.sum.size(), 0.0);
       cs.span_diff.assign(static_cast<std::size_t>(options.num_blocks) * (width + 1), 0.0);
     }
     const std::size_t at0 = static_cast<std::size_t>(block) * width + half_span;
@@ -179,6 +182,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     const int dx_hi = std::min(half_span, luminance.width - 1 - b0);
     double* sum = cs.sum.data() + at0;
     double* saturated = cs.saturated.data() + at0;
+    double* saturated_sum = cs.saturated_sum.data() + at0;
     // A run of unmasked pixels [from, to] (column offsets): OpenCV's
     // vectorised float-into-double accumulation, and one count each through
     // the block's difference array.
@@ -211,6 +215,7 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
         if (mask[b0 + dx]) {
           add_run(run, dx - 1);
           saturated[dx] += 1.0;
+          if (std::isfinite(row[b0 + dx])) saturated_sum[dx] += row[b0 + dx];
           run = dx + 1;
         }
         ++dx;
@@ -237,11 +242,13 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
         const std::size_t at = static_cast<std::size_t>(block) * width + dx + half_span;
         const double sum = cs.sum[at];
         const double saturated = cs.saturated[at];
+        const double saturated_sum = cs.saturated_sum[at];
         profile.saturated_samples += static_cast<int>(saturated);
         for (int j = from; j < to; ++j) {
           sums[fp.bins[j]] += fp.weights[j] * sum;
           counts[fp.bins[j]] += fp.weights[j] * count;
           profile.saturated[fp.bins[j]] += fp.weights[j] * saturated;
+          profile.saturated_sum[fp.bins[j]] += fp.weights[j] * saturated_sum;
         }
       }
     }

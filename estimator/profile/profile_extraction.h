@@ -22,6 +22,11 @@ struct Profile {
   std::vector<double> stderr_mean;  // standard error of mean, from row blocks
   std::vector<double> count;        // unmasked pixels in the bin (fractional)
   std::vector<double> saturated;    // saturated (left out) pixels in the bin
+  // The sum of those pixels' values as decoded: at the clip level, below
+  // what the sensor saw. (mean·count + saturated_sum)/(count + saturated) is
+  // a lower bound on the bin's true mean, and a far tighter one than the
+  // mean of its unclipped pixels where glints clip.
+  std::vector<double> saturated_sum;
   double bin_width_rad = 0.0;
   // Radius of the cylinder in pixels: a pixel spans about
   // 1/(radius_px·cos φ) rad of azimuth (orthographic), wider than a bin
