@@ -98,5 +98,39 @@ TEST(ClippedLobeTest, MostlyClippedLobeIsNotReadByPeakPicking) {
               3.0 * bright->peak_spacing_rad.stderr_value / kDeg);
 }
 
+// Glints that clip only here and there (a few per cent of a bin's pixels,
+// under the 5 % at which a bin counts as clipped) took the brightest pixels
+// out of the caustic bins when they were left out of the mean: at 5x the
+// default exposure this lobe read 15.4 deg short, 3.9 stated errors, and the
+// comb fit failed from there. Read at the lower bound the clipped pixels
+// give, the peaks are within their error, and the comb fit runs.
+TEST(ClippedLobeTest, CausticsWhoseGlintsClipAreStillRead) {
+  RenderScene scene;
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.phase_angle_deg = 60.0;
+  scene.exposure *= 5.0;
+  scene.seed = 1;
+  const absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  ASSERT_TRUE(rendered.ok()) << rendered.status();
+  ASSERT_GT(rendered->image.SaturatedCount(), 100);
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = 60.0 * kDeg;
+  EstimateOptions fast;
+  fast.mode = Mode::kFast;
+  absl::StatusOr<Estimate> picked = EstimateFromImage(rendered->image, acquisition, fast);
+  ASSERT_TRUE(picked.ok()) << picked.status();
+  ASSERT_TRUE(picked->peak_spacing_rad.resolved);
+  const double truth = rendered->truth.peak_spacing_deg;
+  EXPECT_NEAR(picked->peak_spacing_rad.value / kDeg, truth,
+              3.0 * picked->peak_spacing_rad.stderr_value / kDeg);
+
+  absl::StatusOr<Estimate> fitted = EstimateFromImage(rendered->image, acquisition, EstimateOptions());
+  ASSERT_TRUE(fitted.ok()) << fitted.status();
+  EXPECT_EQ(fitted->method, "comb-fit");
+  EXPECT_NEAR(fitted->peak_spacing_rad.value / kDeg, truth,
+              3.0 * fitted->peak_spacing_rad.stderr_value / kDeg);
+}
+
 }  // namespace
 }  // namespace weavefit
