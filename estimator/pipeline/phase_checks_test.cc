@@ -132,5 +132,31 @@ TEST(ClippedLobeTest, CausticsWhoseGlintsClipAreStillRead) {
               3.0 * fitted->peak_spacing_rad.stderr_value / kDeg);
 }
 
+// At α = 140° the lobe (70° ± 13.5° for m = 0.24) runs into the limb: no
+// isolated lobe, a clear error. Once the lit limb was placed right there,
+// peak picking read it as a 23.7° sawtooth for a 27.0° sinusoid.
+TEST(ClippedLobeTest, ALobeCutByTheLimbIsAnError) {
+  RenderScene scene;
+  scene.width_px = 320;
+  scene.height_px = 240;
+  scene.wavelength_mm = 1.44;
+  scene.amplitude_mm = 0.055;
+  scene.phase_angle_deg = 140.0;
+  scene.seed = 1;
+  const absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  ASSERT_TRUE(rendered.ok()) << rendered.status();
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = 140.0 * kDeg;
+  for (Mode mode : {Mode::kFast, Mode::kBalanced}) {
+    EstimateOptions options;
+    options.mode = mode;
+    absl::StatusOr<Estimate> e = EstimateFromImage(rendered->image, acquisition, options);
+    ASSERT_FALSE(e.ok()) << e->peak_spacing_rad.value / kDeg;
+    EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(std::string(e.status().message()).find("not isolated"), std::string::npos)
+        << e.status();
+  }
+}
+
 }  // namespace
 }  // namespace weavefit
