@@ -428,12 +428,13 @@ int RunSweep(const BenchFlags& flags) {
           const double err = resolved ? e->peak_spacing_rad.value / kDeg - truth.peak_spacing_deg
                                       : std::nan("");
           const double se = resolved ? e->peak_spacing_rad.stderr_value / kDeg : std::nan("");
-          // Wrong: an error, a wrong model where the split shows, or a
-          // spacing more than 3 stated errors off. Unresolved: no spacing
-          // where the truth's split is resolvable.
-          const bool is_wrong = !ok || (truth.split_resolvable && resolved && !model_right) ||
+          // Wrong: a wrong model where the split shows, or a spacing more
+          // than 3 stated errors off. Unresolved: no spacing, or an error
+          // reply (a refusal, which says why), where the truth's split is
+          // resolvable.
+          const bool is_wrong = (ok && truth.split_resolvable && resolved && !model_right) ||
                                 (resolved && std::fabs(err) > 3.0 * se);
-          const bool is_unresolved = ok && truth.split_resolvable && !resolved;
+          const bool is_unresolved = (!ok || !resolved) && truth.split_resolvable;
           wrong[mode] += is_wrong;
           unresolved[mode] += is_unresolved;
           if (resolved) errors[mode].push_back(std::fabs(err));

@@ -2,7 +2,7 @@ $max_slope_fast << EOD
 0.01 0
 0.02 0
 0.04 0
-0.08 0.333333
+0.08 0
 0.16 0
 0.24 0
 0.4 0
@@ -31,7 +31,7 @@ $noise_fast << EOD
 5000 0
 2000 0
 800 0
-300 0.333333
+300 0
 EOD
 $noise_balanced << EOD
 200000 0
@@ -39,7 +39,7 @@ $noise_balanced << EOD
 5000 0
 2000 0
 800 0
-300 0.333333
+300 0
 EOD
 $noise_accurate << EOD
 200000 0
@@ -47,7 +47,7 @@ $noise_accurate << EOD
 5000 0
 2000 0
 800 0
-300 0.333333
+300 0
 EOD
 $blur_fast << EOD
 0.3 0
@@ -155,19 +155,19 @@ EOD
 $exposure_balanced << EOD
 1 0
 10 0
-30 1
-100 0.333333
-300 1
+30 0
+100 1
+300 0.666667
 EOD
 $exposure_accurate << EOD
 1 0
 10 0
-30 1
-100 0.333333
-300 1
+30 0
+100 1
+300 0.666667
 EOD
 set terminal pngcairo size 1900,850 font ',10'
-set output '/tmp/sweep_E/sweep_failures.png'
+set output '/tmp/w/sweep9/sweep_failures.png'
 set multiplot layout 2,4 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
@@ -208,7 +208,7 @@ set xlabel 'exposure, times the default (glints clip)'
 plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
 set terminal svg size 1900,850
-set output '/tmp/sweep_E/sweep_failures.svg'
+set output '/tmp/w/sweep9/sweep_failures.svg'
 set multiplot layout 2,4 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
