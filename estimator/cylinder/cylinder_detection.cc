@@ -127,8 +127,8 @@ constexpr double kEdgeRise = 0.5;
 // light (its outer caustic, at α/2 + arctan m, within a few pixels of it).
 constexpr double kGlintsReachLimbRad = 60.0 * M_PI / 180.0;
 // From this phase angle on, the limb away from the light is in shadow over
-// the edge fit's window (the terminator, at 90° − |α| from it, lies R·(1 −
-// cos α) inside: 6 px at R = 256 px and 12°).
+// the edge fit's window (the terminator, |α| of azimuth from it, lies
+// R·(1 − cos α) inside: 6 px at R = 256 px and 12°).
 constexpr double kShadowedLimbRad = 12.0 * M_PI / 180.0;
 
 // The limb to a fraction of a pixel: the band's pixels from two outside the
@@ -323,7 +323,8 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   const bool glints_reach_limb =
       light != 0 && std::fabs(options.phase_angle_rad) >= kGlintsReachLimbRad;
   // The limb away from the light lies in the cylinder's own shadow.
-  const bool shadowed_limb = light != 0 && std::fabs(options.phase_angle_rad) >= kShadowedLimbRad;
+  const bool shadowed_limb =
+      light != 0 && std::fabs(options.phase_angle_rad) >= kShadowedLimbRad;
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;

@@ -125,7 +125,8 @@ TEST(ClippedLobeTest, CausticsWhoseGlintsClipAreStillRead) {
   EXPECT_NEAR(picked->peak_spacing_rad.value / kDeg, truth,
               3.0 * picked->peak_spacing_rad.stderr_value / kDeg);
 
-  absl::StatusOr<Estimate> fitted = EstimateFromImage(rendered->image, acquisition, EstimateOptions());
+  absl::StatusOr<Estimate> fitted =
+      EstimateFromImage(rendered->image, acquisition, EstimateOptions());
   ASSERT_TRUE(fitted.ok()) << fitted.status();
   EXPECT_EQ(fitted->method, "comb-fit");
   EXPECT_NEAR(fitted->peak_spacing_rad.value / kDeg, truth,
