@@ -455,30 +455,33 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   // it at the median of the first pass's per-band fits. Fitted band by band,
   // S is noisy and held at zero when negative, so noise alone biases it
   // upward, and its rise at the limb pulls the edge inward (0.05 px on
-  // 320×240 renders).
-  for (int pass = 0; pass < 2; ++pass) {
-    const double left_s = pass == 0 ? std::numeric_limits<double>::quiet_NaN()
-                                    : MedianOfFinite(left_scatter);
-    const double right_s = pass == 0 ? std::numeric_limits<double>::quiet_NaN()
-                                     : MedianOfFinite(right_scatter);
-    left_points.clear();
-    right_points.clear();
+  // 320×240 renders). refine_limb places one limb (inward +1: left) in
+  // every band, with S held at `scatter` (NaN: fitted per band, each band's
+  // fit appended to `fitted`).
+  auto refine_limb = [&](int inward, double scatter, std::vector<double>* fitted) {
+    const bool toward_light = inward > 0 ? light < 0 : light > 0;
+    std::vector<LimbPoint> points;
     for (const BandEdges& band : bands_seen) {
-      double s_left = 0.0;
-      double s_right = 0.0;
-      left_points.push_back(
-          {band.row, region.x + RefineEdge(band.profile, background, band.left_cross, +1,
-                                           band.radius, glints_reach_limb && light < 0,
-                                           !shadowed_limb || light < 0, left_s, &s_left)});
-      right_points.push_back(
-          {band.row, region.x + RefineEdge(band.profile, background, band.right_cross, -1,
-                                           band.radius, glints_reach_limb && light > 0,
-                                           !shadowed_limb || light > 0, right_s, &s_right)});
-      if (pass == 0) {
-        left_scatter.push_back(s_left);
-        right_scatter.push_back(s_right);
-      }
+      double s = 0.0;
+      points.push_back(
+          {band.row, region.x + RefineEdge(band.profile, background,
+                                           inward > 0 ? band.left_cross : band.right_cross,
+                                           inward, band.radius, glints_reach_limb && toward_light,
+                                           !shadowed_limb || toward_light, scatter, &s)});
+      if (fitted != nullptr) fitted->push_back(s);
     }
+    return points;
+  };
+  left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN(), &left_scatter);
+  right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN(), &right_scatter);
+  // A limb in shadow has S held at zero in both passes: its first is final.
+  if (!shadowed_limb || light < 0) {
+    const double s = MedianOfFinite(left_scatter);
+    if (std::isfinite(s)) left_points = refine_limb(+1, s, nullptr);
+  }
+  if (!shadowed_limb || light > 0) {
+    const double s = MedianOfFinite(right_scatter);
+    if (std::isfinite(s)) right_points = refine_limb(-1, s, nullptr);
   }
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
