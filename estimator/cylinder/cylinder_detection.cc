@@ -25,6 +25,7 @@ struct Line {
   double at_center = 0.0;  // column at the reference row
   double slope = 0.0;      // columns per row
   double rms = 0.0;
+  double at_center_stderr = 0.0;  // least-squares standard error of at_center
   std::vector<bool> inlier;
 };
 
@@ -91,6 +92,11 @@ Line FitLimbLine(const std::vector<LimbPoint>& points, double center_row) {
     ++n;
   }
   line.rms = n > 0 ? std::sqrt(sum_sq / n) : 0.0;
+  if (n >= 3 && det > 1e-9) {
+    line.at_center_stderr = std::sqrt(sum_sq / (n - 2) * sxx / det);
+  } else {
+    line.at_center_stderr = line.rms;
+  }
   return line;
 }
 
@@ -130,6 +136,30 @@ constexpr double kGlintsReachLimbRad = 60.0 * M_PI / 180.0;
 // the edge fit's window (the terminator, |α| of azimuth from it, lies
 // R·(1 − cos α) inside: 6 px at R = 256 px and 12°).
 constexpr double kShadowedLimbRad = 12.0 * M_PI / 180.0;
+// What one observed limb's placement may be off beyond its scatter over the
+// bands, px: the edge model (a sharp step over each pixel's covered part)
+// is not the photograph's (lens blur, thread relief, a renderer's or a
+// sensor's pixel sampling, clipped pixels at a bright rim). Fixtures with
+// the limbs on pixel boundaries put the radius 0.02-0.05 px short; limbs
+// 0.4 px off them, 0.08 px short (the renderer's 4 samples per pixel
+// quantise the edge to a quarter pixel); a rim of clipped grazing scatter,
+// 0.12 px (DetectionCasesTest.ClippedGlintsWithBrightGrazingScatter).
+constexpr double kLimbSystematicPx = 0.07;
+// The same for an inferred limb: over 125 dark-limb renders its errors were
+// 0.72 px rms, 1.95 px at worst (README), so the radius (half the distance
+// to the observed limb) is off by about half that.
+constexpr double kInferredLimbPx = 1.0;
+
+// Standard error of the radius from the two limb lines: each line's own
+// scatter and its systematic allowance, halved (the radius is half the
+// distance between the limbs).
+double RadiusStderr(const Line& left, double left_systematic, const Line& right,
+                    double right_systematic) {
+  return 0.5 * std::sqrt(left.at_center_stderr * left.at_center_stderr +
+                         left_systematic * left_systematic +
+                         right.at_center_stderr * right.at_center_stderr +
+                         right_systematic * right_systematic);
+}
 
 // The limb to a fraction of a pixel: the band's pixels from two outside the
 // first estimate e0 to five inside are fitted, for edges e within a pixel of
@@ -502,6 +532,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   g.axis_angle_rad = std::atan(-slope);
   g.radius_px = 0.5 * (right.at_center - left.at_center) * std::cos(g.axis_angle_rad);
   g.limb_rms_px = std::sqrt(0.5 * (left.rms * left.rms + right.rms * right.rms));
+  g.radius_stderr_px = RadiusStderr(left, kLimbSystematicPx, right, kLimbSystematicPx);
   g.left_observed = true;
   g.right_observed = true;
   if (g.radius_px < options.min_radius_px) {
@@ -582,6 +613,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     g.axis_angle_rad = std::atan(-0.5 * (l.slope + r.slope));
     g.radius_px = 0.5 * (r.at_center - l.at_center) * std::cos(g.axis_angle_rad);
     g.limb_rms_px = std::sqrt(0.5 * (l.rms * l.rms + r.rms * r.rms));
+    g.radius_stderr_px = RadiusStderr(l, kLimbSystematicPx, r, kLimbSystematicPx);
   }
   // With the phase angle known, the lobe must stand near the mirror azimuth
   // α/2. When it does not, the edge on the side away from the light may be
@@ -688,6 +720,10 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       if (inferred.ok()) {
         const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
         if ((!flat || inferred_miss < 0.5 * miss) && inferred_miss <= options.min_lobe_offset_to_infer_rad) {
+          const bool right_lit = options.phase_angle_rad > 0;
+          inferred->radius_stderr_px =
+              RadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx, final_right,
+                           right_lit ? kLimbSystematicPx : kInferredLimbPx);
           return *inferred;
         }
         why_not_inferred = absl::StrCat(

@@ -32,6 +32,11 @@ struct CylinderGeometry {
   bool right_observed = false;
   // RMS distance of the per-band limb points from the fitted lines.
   double limb_rms_px = 0.0;
+  // Standard error of radius_px: the limb lines' scatter over the bands and
+  // an allowance for the edge model (0.07 px per observed limb, 1 px for an
+  // inferred one). It sets the scale from pixels to azimuth, so it enters
+  // the wavelength in mm (and the max slope) in proportion.
+  double radius_stderr_px = 0.0;
 
   // Axis column at image row y.
   double AxisColumn(double y) const {

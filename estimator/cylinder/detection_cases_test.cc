@@ -84,6 +84,12 @@ void ExpectLimbsAndTilt(const RenderScene& scene, const Rendered& rendered,
   EXPECT_NEAR(found.right, truth.right, kLimbTolerancePx);
   EXPECT_NEAR(g.axis_angle_rad / kDeg, rendered.truth.axis_angle_deg,
               kTiltToleranceDeg);
+  // The radius's stated error: the edge model's allowance (0.05 px for two
+  // seen limbs) and the bands' scatter, and honest: it sets the wavelength's
+  // scale.
+  EXPECT_GE(g.radius_stderr_px, 0.049);
+  EXPECT_LT(g.radius_stderr_px, 0.2);
+  EXPECT_LE(std::fabs(g.radius_px - rendered.truth.radius_px), 3.0 * g.radius_stderr_px);
 }
 
 void ExpectDetected(const RenderScene& scene) {
@@ -292,6 +298,10 @@ void ExpectInferredDarkLimb(const RenderScene& scene) {
   EXPECT_NEAR(lit_error, 0.0, kLimbTolerancePx);
   EXPECT_NEAR(dark_error, 0.0, 2.0);
   EXPECT_NEAR(g->axis_angle_rad / kDeg, rendered.truth.axis_angle_deg, kTiltToleranceDeg);
+  // An inferred limb makes the radius uncertain by about half a pixel, and
+  // its stated error says so.
+  EXPECT_GE(g->radius_stderr_px, 0.45);
+  EXPECT_LE(std::fabs(g->radius_px - rendered.truth.radius_px), 3.0 * g->radius_stderr_px);
 }
 
 // The terminator of a coloured fabric's Lambertian term (DESIGN.md §3).

@@ -271,11 +271,19 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
           acquisition.phase_angle_rad / kDeg));
     }
   }
+  // The radius sets the scale from pixels to azimuth: its relative error is
+  // the wavelength's (arc length R·φ) and, to first order, the max slope's
+  // (the glints' azimuths from the mirror scale with it).
+  const double scale = estimate->cylinder.radius_px > 0.0
+                           ? estimate->cylinder.radius_stderr_px / estimate->cylinder.radius_px
+                           : 0.0;
   const double m = comb.max_slope;
-  const double m_se = misfit * std::hypot(comb.max_slope_stderr, options.slope_floor * m);
+  const double m_se =
+      std::hypot(misfit * std::hypot(comb.max_slope_stderr, options.slope_floor * m), scale * m);
   const double lambda = comb.wavelength_mm;
-  const double lambda_se =
-      misfit * std::hypot(comb.wavelength_stderr_mm, options.wavelength_floor * lambda);
+  const double lambda_se = std::hypot(
+      misfit * std::hypot(comb.wavelength_stderr_mm, options.wavelength_floor * lambda),
+      scale * lambda);
   estimate->max_slope = {m, m_se, true};
   estimate->peak_spacing_rad = {PeakSpacingRad(m), 2.0 * m_se / (1.0 + m * m), true};
   estimate->wavelength_mm = {lambda, lambda_se, true};
@@ -398,7 +406,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
         "): max slope from the profile's peaks, wavelength from the glint count"));
   }
   const double lambda = period->wavelength_mm;
-  const double lambda_se = period->wavelength_stderr_mm;
+  const double lambda_se =
+      std::hypot(period->wavelength_stderr_mm,
+                 lambda * cylinder.radius_stderr_px / std::max(cylinder.radius_px, 1.0));
   estimate->wavelength_mm = {lambda, lambda_se, true};
   // Sinusoid h0·sin(2πx/λ): m = 2π·h0/λ.
   const double m = estimate->max_slope.value;

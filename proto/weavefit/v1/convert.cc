@@ -111,6 +111,7 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
   c->set_bottom_row_px(e.cylinder.bottom_row);
   c->set_left_limb_observed(e.cylinder.left_observed);
   c->set_right_limb_observed(e.cylinder.right_observed);
+  c->set_radius_stderr_px(e.cylinder.radius_stderr_px);
   for (const CandidateScore& candidate : e.candidates) {
     v1::Candidate* out = reply.add_candidates();
     out->set_model(ModelToProto(candidate.model));
