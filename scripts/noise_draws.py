@@ -15,6 +15,8 @@ spacing, max slope, wavelength, amplitude, where the truth resolves them):
   spread    the standard deviation of the errors over the draws, divided by
             the rms stated error (issue 5: within a factor 1.5 of 1)
   bias      the mean error, in stated errors
+  rms z     the root mean square of error / stated error (1 for errors that
+            are as large as stated, bias included)
 
 One line per fixture and quantity with -v; the summary always. Needs the built
 client (build/client/weavefit); standard library only.
@@ -117,12 +119,13 @@ def main():
     for f in failures:
         print("  failed: " + f)
     if args.verbose:
-        print("%-28s %-15s %3s %10s %10s %10s %7s %6s %8s" %
+        print("%-28s %-15s %3s %10s %10s %10s %7s %6s %8s %6s" %
               ("fixture", "quantity", "n", "mean err", "sd err", "rms se", "sd/se", "cover",
-               "bias/se"))
+               "bias/se", "rms z"))
     for field, _, rel in QUANTITIES:
         covered = total = 0
         ratios = []
+        zs = []
         for (name, f), draws in sorted(per.items()):
             if f != field:
                 continue
@@ -134,22 +137,24 @@ def main():
             rms_se = math.sqrt(sum(s * s for s in ses) / len(ses))
             sd = statistics.stdev(errs) if len(errs) > 1 else float("nan")
             mean = statistics.fmean(errs)
+            z = math.sqrt(statistics.fmean([(e / s) ** 2 for e, s in draws if s > 0] or [0.0]))
             if len(errs) >= 4 and rms_se > 0:
                 ratios.append((sd / rms_se, name))
+                zs.append(z)
             if args.verbose:
                 unit = "rel" if rel else "deg" if "Deg" in field else "mm"
-                print("%-28s %-15s %3d %10.3g %10.3g %10.3g %7.2f %3d/%-2d %8.2f  %s" %
+                print("%-28s %-15s %3d %10.3g %10.3g %10.3g %7.2f %3d/%-2d %8.2f %6.2f  %s" %
                       (name, field, len(errs), mean, sd, rms_se,
                        sd / rms_se if rms_se else float("nan"), cov, len(errs),
-                       mean / rms_se if rms_se else float("nan"), unit))
+                       mean / rms_se if rms_se else float("nan"), z, unit))
         if not total or not ratios:
             continue
         within = sum(1 for r, _ in ratios if 1 / 1.5 <= r <= 1.5)
         rs = sorted(r for r, _ in ratios)
         print("%-15s coverage %d/%d = %.1f %%; sd/stated error median %.2f (range %.2f-%.2f), "
-              "within 1.5x on %d/%d fixtures" %
+              "within 1.5x on %d/%d fixtures; rms z median %.2f" %
               (field, covered, total, 100.0 * covered / total, statistics.median(rs),
-               rs[0], rs[-1], within, len(rs)))
+               rs[0], rs[-1], within, len(rs), statistics.median(zs)))
 
 
 if __name__ == "__main__":
