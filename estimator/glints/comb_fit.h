@@ -36,6 +36,9 @@ struct CombFitOptions {
   // the period and the solve crawls: the 2° tilt fixture needed more than
   // 100 from a start 0.5 % away from the one that converged within 100.
   int max_iterations = 300;
+  // Iterations of the polish on every sub-interval (its cap only ends a
+  // refinement of a converged solve).
+  int polish_iterations = 30;
   // The fit is taken when the glints explain at least this share of the
   // rows' variance about their baselines: 0.85 to 0.998 on the fixtures'
   // sinusoids; at most 0.21 started from half or twice the period, but 0.75
