@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "estimator/cylinder/terminator.h"
+#include "estimator/optics/radiance.h"
 #include "estimator/stats/median.h"
 #include "absl/strings/str_cat.h"
 
@@ -210,6 +211,18 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   }
   const double r = radius_px;
   auto arc = [r](double d) { return std::asin(std::clamp(1.0 - d / r, -1.0, 1.0)); };
+  // ∫ dd / max(cos φ, kMinCosAzimuth) over [lo, hi] inside the limb: the
+  // optical models cap the grazing 1/cos φ there (optics/radiance.h).
+  const double d_cap = r * (1.0 - std::sqrt(1.0 - kMinCosAzimuth * kMinCosAzimuth));
+  auto capped_integral = [&](double lo, double hi) {
+    double sum = 0.0;
+    if (lo < d_cap) {
+      sum += (std::min(hi, d_cap) - lo) / kMinCosAzimuth;
+      lo = d_cap;
+    }
+    if (hi > lo) sum += r * (arc(lo) - arc(hi));
+    return sum;
+  };
   double best_e = e0;
   double best_scatter = 0.0;
   double best_sse = std::numeric_limits<double>::infinity();
@@ -225,7 +238,7 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
       const double lo = std::max(0.0, d_lo);
       const double hi = std::max(lo, d_lo + 1.0);
       cov[i] = hi - lo;
-      integral[i] = r * (arc(lo) - arc(hi));
+      integral[i] = capped_integral(lo, hi);
       y[i] = v[x] - background * (1.0 - cov[i]);
       a11 += cov[i] * cov[i];
       a12 += cov[i] * integral[i];
