@@ -151,6 +151,11 @@ constexpr double kLimbSystematicPx = 0.07;
 // to the observed limb) is off by about half that.
 constexpr double kInferredLimbPx = 1.0;
 
+// An edge away from the light whose 20-80 % rise is this much wider than
+// the lit limb's is taken for a terminator (px): a limb's rise is a pixel or
+// two wide, the lens's blur the same at both limbs.
+constexpr double kSoftEdgePx = 2.5;
+
 // Standard error of the radius from the two limb lines: each line's own
 // scatter and its systematic allowance, halved (the radius is half the
 // distance between the limbs).
@@ -715,11 +720,64 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       if (spreads.empty()) return true;
       return Median(spreads) < 4.0 * noise + 0.3 * Median(levels);
     };
+    // The 20-80 % rise of an edge, px, from the mean over the usable rows
+    // of each row's pixels at a distance d inside it (along the row, the
+    // axis's tilt followed): a limb is a step blurred by the lens, a
+    // terminator taken for one a ramp (the Lambertian term grows from zero
+    // there). NaN when the edge has too little contrast to measure.
+    auto edge_rise_px = [&](const CylinderGeometry& c, int side) {
+      const double half = c.radius_px / std::cos(c.axis_angle_rad);
+      const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+      constexpr int kOut = 4, kIn = 14;
+      std::vector<double> level(kOut + kIn + 1, 0.0);
+      int rows = 0;
+      for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+        const double edge = c.AxisColumn(y) + side * half;  // side −1: left
+        const double x_lo = edge - side * kIn, x_hi = edge + side * kOut;
+        if (std::min(x_lo, x_hi) < 0 || std::max(x_lo, x_hi) > luminance.width - 2) continue;
+        for (int d = -kOut; d <= kIn; ++d) {
+          const double x = edge - side * d;
+          const int x0 = static_cast<int>(std::floor(x));
+          const double t = x - x0;
+          level[d + kOut] += (1.0 - t) * luminance.At(x0, y) + t * luminance.At(x0 + 1, y);
+        }
+        ++rows;
+      }
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      if (rows < 3) return nan;
+      for (double& v : level) v /= rows;
+      const double outside = 0.5 * (level[0] + level[1]);
+      const double inside = 0.5 * (level[kOut + kIn] + level[kOut + kIn - 1]);
+      const double step = inside - outside;
+      if (!(std::fabs(step) > 8.0 * noise / std::sqrt(static_cast<double>(rows)))) return nan;
+      auto crossing = [&](double share) {
+        const double at = outside + share * step;
+        for (std::size_t i = 1; i < level.size(); ++i) {
+          if ((level[i - 1] - at) * (level[i] - at) <= 0.0 && level[i] != level[i - 1]) {
+            return (i - 1) + (at - level[i - 1]) / (level[i] - level[i - 1]);
+          }
+        }
+        return nan;
+      };
+      return crossing(0.8) - crossing(0.2);
+    };
     const double phi = lobe_azimuth(g);
     const double miss = std::fabs(phi - half_alpha);
     const bool flat = shadow_is_flat(g) && unlit_edge_is_smooth(g);
+    // With the unlit limb in shadow, an edge there that rises far more
+    // slowly than the lit limb is a terminator: at α = −16° (640×480, a
+    // Lambertian body as dark as the background) it stood 12 px inside the
+    // limb, which put the lobe 1° off and called a sawtooth a sinusoid.
+    bool soft_unlit = false;
+    if (std::fabs(options.phase_angle_rad) >= kShadowedLimbRad) {
+      const int light_side = options.phase_angle_rad > 0 ? 1 : -1;
+      const double lit_rise = edge_rise_px(g, light_side);
+      const double unlit_rise = edge_rise_px(g, -light_side);
+      soft_unlit = std::isfinite(unlit_rise) && unlit_rise > kSoftEdgePx +
+                       (std::isfinite(lit_rise) ? lit_rise : 0.0);
+    }
     std::string why_not_inferred;
-    if (miss > options.min_lobe_offset_to_infer_rad || !flat) {
+    if (miss > options.min_lobe_offset_to_infer_rad || !flat || soft_unlit) {
       // The edge away from the light may be a soft terminator: the tilt is
       // the lit limb's alone.
       const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
@@ -732,7 +790,8 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
           luminance, edges, options.phase_angle_rad, options.projection, {background, noise});
       if (inferred.ok()) {
         const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
-        if ((!flat || inferred_miss < 0.5 * miss) && inferred_miss <= options.min_lobe_offset_to_infer_rad) {
+        if ((!flat || soft_unlit || inferred_miss < 0.5 * miss) &&
+            inferred_miss <= options.min_lobe_offset_to_infer_rad) {
           const bool right_lit = options.phase_angle_rad > 0;
           inferred->radius_stderr_px =
               RadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx, final_right,

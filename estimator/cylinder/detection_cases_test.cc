@@ -317,6 +317,24 @@ TEST(DarkLimbTest, InferredBeyondALambertianTerminatorLightOnTheLeft) {
   ExpectInferredDarkLimb(scene);
 }
 
+// At a small phase angle the dark sliver beyond the terminator is narrow
+// (R·(1 − cos α): 10 px at R = 256 px and 16°) and the lobe stands where it
+// should whichever edge is taken, so only the edge's shape tells: the
+// terminator rises over many pixels, a limb within one or two. Taken for
+// the limb, the terminator put the radius 6 px short.
+TEST(DarkLimbTest, InferredAtASmallPhaseAngleFromTheTerminatorsRamp) {
+  RenderScene scene = DarkLimbScene(-16.0);
+  scene.diffuse = 0.045;
+  ExpectInferredDarkLimb(scene);
+}
+
+TEST(DarkLimbTest, InferredAtASmallPhaseAngleWithTilt) {
+  RenderScene scene = DarkLimbScene(20.0);
+  scene.diffuse = 0.045;
+  scene.axis_angle_deg = -2.5;
+  ExpectInferredDarkLimb(scene);
+}
+
 TEST(DarkLimbTest, InferredWithTiltAndAWeakerTerm) {
   RenderScene scene = DarkLimbScene(90.0);
   scene.center_x_px = 161.3;

@@ -261,9 +261,9 @@ absl::StatusOr<CylinderGeometry> InferDarkLimb(const Image& luminance,
                                                const Projection& projection,
                                                const BackgroundLevel& background) {
   const double alpha = phase_angle_rad;
-  if (!(std::fabs(alpha) > 20.0 * kDeg && std::fabs(alpha) < 170.0 * kDeg)) {
+  if (!(std::fabs(alpha) > 10.0 * kDeg && std::fabs(alpha) < 170.0 * kDeg)) {
     return absl::InvalidArgumentError(
-        "no terminator to infer a dark limb from: the phase angle must lie between 20 and 170 deg");
+        "no terminator to infer a dark limb from: the phase angle must lie between 10 and 170 deg");
   }
   if (luminance.channels != 1 || !(edges.radius_px > 0.0)) {
     return absl::InvalidArgumentError("InferDarkLimb needs a one-channel image and two edges");

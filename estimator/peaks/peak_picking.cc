@@ -452,12 +452,31 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         {Prominence(excess, left_index, lobe_lo, lobe_hi) / se[left_index],
          Prominence(excess, right_index, lobe_lo, lobe_hi) / se[right_index], 1e3});
     // Mean level over the middle half between the peaks, against the
-    // lower peak: a filled lobe (sinusoid) or an empty one (sawtooth).
+    // lower peak: a filled lobe (sinusoid) or an empty one (sawtooth). Both
+    // are measured above the chord through the profile just outside the two
+    // peaks (where each has fallen to a tenth of its height, two bins on),
+    // not the window's: a Lambertian term (a coloured cloth) bulges above
+    // the window's chord and filled a sawtooth's valley (α = −16°, 640×480:
+    // a ratio of 0.25 above the window's chord, 0.01 above this one).
+    auto outside = [&](int peak, int step) {
+      const double tenth = 0.1 * excess[peak];
+      int i = peak;
+      while (i + step >= lo && i + step <= hi && excess[i] > tenth) i += step;
+      return std::clamp(i + 2 * step, lo, hi);
+    };
+    const int out_l = outside(left_index, -1);
+    const int out_r = outside(right_index, +1);
+    auto chord = [&](int k) {
+      return s[out_l] + (s[out_r] - s[out_l]) * (k - out_l) / std::max(out_r - out_l, 1);
+    };
+    const double lower_local =
+        std::min(s[left_index] - chord(left_index), s[right_index] - chord(right_index));
     const int q = (right_index - left_index) / 4;
     double middle = 0.0;
-    for (int k = left_index + q; k <= right_index - q; ++k) middle += excess[k];
+    for (int k = left_index + q; k <= right_index - q; ++k) middle += s[k] - chord(k);
     middle /= (right_index - left_index - 2 * q + 1);
-    result.valley_ratio = std::max(middle, 0.0) / lower;
+    result.valley_ratio = lower_local > 0.0 ? std::max(middle, 0.0) / lower_local
+                                            : std::max(middle, 0.0) / lower;
   } else {
     result.dip_sigmas = 0.0;
   }

@@ -232,6 +232,42 @@ TEST(EstimateTest, PerspectiveSawtooth) {
   EXPECT_NEAR(e->specular_azimuth_rad.value / kDeg, 14.8, 0.2);
 }
 
+// A coloured cloth: a Lambertian term under the lobe, and a body as dark as
+// the background, so the limb away from the light is lost beyond the
+// terminator even at small phase angles. The Lambertian dome bulges above
+// the window's chord; a sawtooth's empty valley must still read as empty,
+// and the terminator must not be taken for the limb (it stood 12 px inside
+// it at α = −16°, which moved the lobe 1° and made the sawtooth a
+// sinusoid read 0.6° long).
+class ColouredSawtoothTest : public ::testing::TestWithParam<double> {};
+
+TEST_P(ColouredSawtoothTest, IsASawtoothWithTheLimbInferred) {
+  RenderScene scene = SinusoidScene();
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 2.0;
+  scene.amplitude_mm = 0.16 * scene.wavelength_mm / 4.0;
+  scene.phase_angle_deg = GetParam();
+  scene.ambient = 0.01;
+  scene.background = 0.01;
+  scene.diffuse = 0.045;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, Lab(GetParam()), EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSawtooth) << ProfileModelName(e->model);
+  ASSERT_TRUE(e->peak_spacing_rad.resolved);
+  const double error = e->peak_spacing_rad.value / kDeg - r->truth.peak_spacing_deg;
+  EXPECT_LE(std::fabs(error), 3.0 * e->peak_spacing_rad.stderr_value / kDeg);
+  EXPECT_LT(std::fabs(error), 0.2);
+  EXPECT_NEAR(e->cylinder.radius_px, r->truth.radius_px, 1.0);
+  EXPECT_NEAR(e->specular_azimuth_rad.value / kDeg, r->truth.mirror_azimuth_deg, 0.2);
+}
+
+INSTANTIATE_TEST_SUITE_P(DarkBody, ColouredSawtoothTest, ::testing::Values(-16.0, 25.0),
+                         [](const ::testing::TestParamInfo<double>& info) {
+                           return std::string(info.param < 0 ? "LightOnTheLeft" : "LightOnTheRight");
+                         });
+
 TEST(EstimateTest, BadBytes) {
   std::mt19937 rng(1);
   std::string garbage(2000, '\0');
