@@ -598,11 +598,23 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
     polish.function_tolerance = 1e-8;
     polish.parameter_tolerance = 1e-10;
     ceres::Solver::Summary last;
+    const double log_sigma_before = log_sigma;
     ceres::Solve(polish, &problem, &last);
     iterations += static_cast<int>(last.iterations.size());
     // The polish may stop at its iteration cap: it only refines a
     // converged solution, whose verdict stands.
     if (!last.IsSolutionUsable()) summary = last;
+    // The polish refines the integration over each bin: on the fixtures it
+    // moves the max slope by 0.06-0.7 % and the source blur by at most 15 %.
+    // One that changes the blur by half or more has slid along a valley of
+    // narrow glints to a false optimum (α = 89°, 800×600: blur 0.18° to
+    // 0.06°, the max slope 4 % long, 8 stated errors), not refined one.
+    if (std::fabs(log_sigma - log_sigma_before) > std::log(1.5)) {
+      summary.termination_type = ceres::NO_CONVERGENCE;
+      summary.message = absl::StrFormat(
+          "the fit did not settle: its polish moved the source blur from %.2f to %.2f deg",
+          std::exp(log_sigma_before) * 180.0 / M_PI, std::exp(log_sigma) * 180.0 / M_PI);
+    }
   }
 
   CombFitResult result;
