@@ -19,6 +19,9 @@ namespace weavefit {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+// Beyond this the lobe read is not the one the stated acquisition makes
+// (the phase-angle check refuses the estimate rather than warn).
+constexpr double kMaxMirrorMissRad = 20.0 * kDeg;
 
 // Wall time per stage, appended in order. Each lap also asks the caller's
 // interrupt (EstimateOptions::interrupt) whether to go on.
@@ -692,6 +695,21 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     const double expected = 0.5 * (acquisition.phase_angle_rad +
                                     ViewAngleRad(peaks->mirror_rad, projection));
     const double miss = std::fabs(peaks->mirror_rad - expected);
+    // So far off, the lobe read is not the one the stated acquisition makes:
+    // a wrong phase angle, or a "cylinder" that is only the lobe's own
+    // stripe of glints on a body as dark as the background (α = −29°,
+    // 320×240: a 27 px cylinder, the lobe 28° off and a 26° sinusoid read
+    // as a 13° sawtooth). No number is better than that one.
+    if (miss > kMaxMirrorMissRad) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "the specular lobe stands at %.1f deg, %.1f deg from half the stated phase angle "
+          "(%.1f deg): check the phase angle and its sign (positive = light on the image's "
+          "right); if it is right, the cylinder found (axis at column %.1f, radius %.1f px) is "
+          "not the cylinder: a body as dark as the background shows only its glints (light "
+          "it, or lighten the background)",
+          peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg, estimate.cylinder.center_x_px,
+          estimate.cylinder.radius_px));
+    }
     if (miss > 3.0 * peaks->mirror_stderr_rad + 1.0 * kDeg) {
       estimate.warnings.push_back(absl::StrFormat(
           "the mirror azimuth %.2f deg is %.2f deg from half the stated phase "
