@@ -702,11 +702,13 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     // as a 13° sawtooth). No number is better than that one.
     if (miss > kMaxMirrorMissRad) {
       return absl::InvalidArgumentError(absl::StrFormat(
-          "the specular lobe stands at %.1f deg, %.1f deg from half the stated phase angle "
-          "(%.1f deg): check the phase angle and its sign (positive = light on the image's "
-          "right); if it is right, the cylinder found (axis at column %.1f, radius %.1f px) is "
-          "not the cylinder: a body as dark as the background shows only its glints (light "
-          "it, or lighten the background)",
+          "the brightest lobe stands at %.1f deg, %.1f deg from half the stated phase angle "
+          "(%.1f deg), so it is not the specular lobe the acquisition makes: check the phase "
+          "angle and its sign (positive = light on the image's right); if it is right, either "
+          "the specular lobe is too dim beside the grazing scatter at the limb (expose more, "
+          "or photograph at a smaller phase angle) or the cylinder found (axis at column %.1f, "
+          "radius %.1f px) is not the cylinder (a body as dark as the background shows only "
+          "its glints: light it, or lighten the background)",
           peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg, estimate.cylinder.center_x_px,
           estimate.cylinder.radius_px));
     }
