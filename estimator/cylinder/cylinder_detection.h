@@ -38,6 +38,12 @@ struct CylinderGeometry {
   // the wavelength in mm (and the max slope) in proportion.
   double radius_stderr_px = 0.0;
 
+  // radius_stderr_px / radius_px: the relative error of the scale from
+  // pixels to azimuth (0 for an empty geometry).
+  double RelativeRadiusError() const {
+    return radius_px > 0.0 ? radius_stderr_px / radius_px : 0.0;
+  }
+
   // Axis column at image row y.
   double AxisColumn(double y) const {
     return center_x_px + (center_row_px - y) * std::tan(axis_angle_rad);

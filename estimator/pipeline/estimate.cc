@@ -277,9 +277,7 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
   // The radius sets the scale from pixels to azimuth: its relative error is
   // the wavelength's (arc length R·φ) and, to first order, the max slope's
   // (the glints' azimuths from the mirror scale with it).
-  const double scale = estimate->cylinder.radius_px > 0.0
-                           ? estimate->cylinder.radius_stderr_px / estimate->cylinder.radius_px
-                           : 0.0;
+  const double scale = estimate->cylinder.RelativeRadiusError();
   const double m = comb.max_slope;
   const double m_se =
       std::hypot(misfit * std::hypot(comb.max_slope_stderr, options.slope_floor * m), scale * m);
@@ -410,8 +408,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   }
   const double lambda = period->wavelength_mm;
   const double lambda_se =
-      std::hypot(period->wavelength_stderr_mm,
-                 lambda * cylinder.radius_stderr_px / std::max(cylinder.radius_px, 1.0));
+      std::hypot(period->wavelength_stderr_mm, lambda * cylinder.RelativeRadiusError());
   estimate->wavelength_mm = {lambda, lambda_se, true};
   // Sinusoid h0·sin(2πx/λ): m = 2π·h0/λ.
   const double m = estimate->max_slope.value;
