@@ -113,11 +113,12 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
     pdf[n] = norm * std::exp(-0.5 * z * z);
     cdf[n] = 0.5 * std::erf(z * M_SQRT1_2);
   }
-  double sum = 0.0;
-  for (int n = 1; n < nodes; ++n) {
-    const int a = n - 1, b = n;
+  // One sub-interval from node a to node b, `span` pieces wide: the
+  // Gaussian over the miss taken as linear between the two nodes, times
+  // sec β at its middle, into *total and its gradient into g5.
+  auto segment = [&](int a, int b, double span, double* total, double g5[5]) {
     if ((g[a] > 8.0 * sigma && g[b] > 8.0 * sigma) || (g[a] < -8.0 * sigma && g[b] < -8.0 * sigma)) {
-      continue;
+      return;
     }
     const double h_mid = 0.5 * (h[a] + h[b]);
     const double sec = std::sqrt(1.0 + h_mid * h_mid);
@@ -126,24 +127,41 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
     double piece, d_ga, d_gb, d_log_sigma;
     if (std::fabs(delta) > 1e-2 * sigma) {
       const double diff = cdf[b] - cdf[a];
-      piece = diff * width / delta;
-      d_gb = width * (pdf[b] / delta - diff / (delta * delta));
-      d_ga = width * (-pdf[a] / delta + diff / (delta * delta));
-      d_log_sigma = width * (-pdf[b] * g[b] + pdf[a] * g[a]) / delta;
+      piece = diff * span / delta;
+      d_gb = span * (pdf[b] / delta - diff / (delta * delta));
+      d_ga = span * (-pdf[a] / delta + diff / (delta * delta));
+      d_log_sigma = span * (-pdf[b] * g[b] + pdf[a] * g[a]) / delta;
     } else {
       const double z = 0.5 * (g[a] + g[b]) / sigma;
       const double f = norm * std::exp(-0.5 * z * z);
-      piece = f * width;
-      d_ga = d_gb = -0.5 * f * z / sigma * width;
-      d_log_sigma = f * (z * z - 1.0) * width;
+      piece = f * span;
+      d_ga = d_gb = -0.5 * f * z / sigma * span;
+      d_log_sigma = f * (z * z - 1.0) * span;
     }
-    sum += sec * piece;
+    *total += sec * piece;
     for (int p = 0; p < 3; ++p) {
       const double d_hmid = 0.5 * (dh[a][p] + dh[b][p]);
-      grad[p == 2 ? 3 : p] += sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
+      g5[p == 2 ? 3 : p] += sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
     }
-    grad[2] += sec * d_log_sigma;
-    grad[4] -= sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
+    g5[2] += sec * d_log_sigma;
+    g5[4] -= sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
+  };
+  double sum = 0.0;
+  for (int n = 1; n < nodes; ++n) segment(n - 1, n, width, &sum, grad);
+  // The linear miss falls short where it bends most, at the caustics (the
+  // glints' turning points, which set m): the sum's error goes as the
+  // square of the sub-interval, so the sum over pairs of sub-intervals,
+  // from the same nodes, extrapolates it away (Richardson): on noise-free
+  // renders of m = 0.3 at α = −60° (11 px per period) the max slope came out
+  // 0.079 % long with 8 sub-intervals, 0.011 % with 64. Only at full
+  // resolution (the polish): the main solve on every other node stays as
+  // it was, so that a polish that slides off it still shows (FitGlintComb).
+  if (stride == 1 && (nodes - 1) % 2 == 0 && nodes > 2) {
+    double coarse = 0.0;
+    double coarse_grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+    for (int n = 2; n < nodes; n += 2) segment(n - 2, n, 2.0 * width, &coarse, coarse_grad);
+    sum = (4.0 * sum - coarse) / 3.0;
+    for (int p = 0; p < 5; ++p) grad[p] = (4.0 * grad[p] - coarse_grad[p]) / 3.0;
   }
   for (int p = 0; p < 5; ++p) grad[p] *= bin.weight;
   return sum * bin.weight;
