@@ -34,11 +34,14 @@ std::string Cell(const v1::Measurement& m, int digits, const char* unit = "") {
 // significant), no locale.
 std::string Number(double value) { return absl::StrFormat("%.10g", value); }
 
-// X, X_stderr, X_upper_bound of one measurement.
+// X, X_stderr, X_upper_bound, X_statistical, X_systematic of one
+// measurement.
 void AppendMeasurement(const v1::Measurement& m, std::vector<std::string>* cells) {
   cells->push_back(m.resolved() ? Number(m.value()) : "");
   cells->push_back(m.resolved() ? Number(m.stderr()) : "");
   cells->push_back(!m.resolved() && m.upper_bound() > 0.0 ? Number(m.upper_bound()) : "");
+  cells->push_back(m.resolved() ? Number(m.statistical()) : "");
+  cells->push_back(m.resolved() ? Number(m.systematic()) : "");
 }
 
 constexpr const char* kCsvMeasurements[] = {"peak_spacing_deg", "max_slope",
@@ -127,6 +130,8 @@ std::vector<std::string> CsvColumns() {
     columns.push_back(m);
     columns.push_back(absl::StrCat(m, "_stderr"));
     columns.push_back(absl::StrCat(m, "_upper_bound"));
+    columns.push_back(absl::StrCat(m, "_statistical"));
+    columns.push_back(absl::StrCat(m, "_systematic"));
   }
   for (const char* c : {"center_x_px", "radius_px", "axis_angle_deg", "warnings"}) {
     columns.push_back(c);

@@ -23,6 +23,8 @@ v1::EstimateReply GauzeReply() {
     out->set_value(value);
     out->set_stderr(se);
     out->set_resolved(true);
+    out->set_statistical(0.6 * se);
+    out->set_systematic(0.8 * se);
   };
   set(r.mutable_peak_spacing_deg(), 2.0 * std::atan(m) * 180.0 / M_PI, 0.05);
   set(r.mutable_max_slope(), m, 0.001);
@@ -50,9 +52,11 @@ TEST(CsvTest, HeaderNamesEveryColumnOnce) {
   const auto at = [&](const std::string& name) {
     return std::find(columns.begin(), columns.end(), name) - columns.begin();
   };
-  EXPECT_EQ(at("max_inclination_deg"), at("max_slope_upper_bound") + 1);
+  EXPECT_EQ(at("max_inclination_deg"), at("max_slope_systematic") + 1);
   EXPECT_EQ(at("max_inclination_deg_stderr"), at("max_inclination_deg") + 1);
   EXPECT_EQ(at("max_inclination_deg_upper_bound"), at("max_inclination_deg") + 2);
+  EXPECT_EQ(at("max_inclination_deg_statistical"), at("max_inclination_deg") + 3);
+  EXPECT_EQ(at("max_inclination_deg_systematic"), at("max_inclination_deg") + 4);
   EXPECT_EQ(columns.back(), "warnings");
 }
 
@@ -79,6 +83,8 @@ TEST(CsvTest, ARowCarriesTheInclinationWithItsError) {
   EXPECT_NEAR(std::stod(cell("max_inclination_deg_stderr")),
               0.001 / (1.0 + 0.2356 * 0.2356) * 180.0 / M_PI, 1e-10);
   EXPECT_EQ(cell("max_inclination_deg_upper_bound"), "");
+  EXPECT_NEAR(std::stod(cell("wavelength_mm_statistical")), 0.0012, 1e-12);
+  EXPECT_NEAR(std::stod(cell("wavelength_mm_systematic")), 0.0016, 1e-12);
   EXPECT_EQ(line.substr(head.size()), ",\"first, with a comma | second \"\"quoted\"\"\"\n");
 }
 
@@ -99,6 +105,8 @@ TEST(CsvTest, UnresolvedValuesAreEmptyAndTheBoundIsGiven) {
   EXPECT_EQ(cell("max_slope"), "");
   EXPECT_EQ(cell("max_slope_stderr"), "");
   EXPECT_EQ(cell("max_slope_upper_bound"), "0.05");
+  EXPECT_EQ(cell("max_slope_statistical"), "");
+  EXPECT_EQ(cell("max_slope_systematic"), "");
   EXPECT_EQ(cell("max_inclination_deg"), "");
   EXPECT_NEAR(std::stod(cell("max_inclination_deg_upper_bound")), 2.862405226, 1e-8);
   EXPECT_EQ(cell("wavelength_mm_upper_bound"), "");

@@ -13,7 +13,9 @@ spacing, max slope, wavelength, amplitude, where the truth resolves them):
 
   coverage  the share of draws with |error| <= 3 stated errors (issue 5: >= 90 %)
   spread    the standard deviation of the errors over the draws, divided by
-            the rms stated error (issue 5: within a factor 1.5 of 1)
+            the rms stated error, and by the rms of its statistical share
+            (Measurement.statistical: what repeated photographs of one set-up
+            should spread by; issue 5: within a factor 1.5 of 1)
   bias      the mean error, in stated errors
   rms z     the root mean square of error / stated error (1 for errors that
             are as large as stated, bias included)
@@ -112,40 +114,47 @@ def main():
                 continue
             scale = t if rel else 1.0
             per.setdefault((name, field), []).append(
-                ((q["value"] - t) / scale, q["stderr"] / scale))
+                ((q["value"] - t) / scale, q["stderr"] / scale,
+                 q.get("statistical", 0.0) / scale))
 
     print("%d fixtures x %d draws, mode %s; %d failed draws" %
           (len(sidecars), args.draws, args.mode, len(failures)))
     for f in failures:
         print("  failed: " + f)
     if args.verbose:
-        print("%-28s %-15s %3s %10s %10s %10s %7s %6s %8s %6s" %
-              ("fixture", "quantity", "n", "mean err", "sd err", "rms se", "sd/se", "cover",
-               "bias/se", "rms z"))
+        print("%-28s %-15s %3s %10s %10s %10s %7s %10s %8s %6s %8s %6s" %
+              ("fixture", "quantity", "n", "mean err", "sd err", "rms se", "sd/se", "rms stat",
+               "sd/stat", "cover", "bias/se", "rms z"))
     for field, _, rel in QUANTITIES:
         covered = total = 0
         ratios = []
+        stat_ratios = []
         zs = []
         for (name, f), draws in sorted(per.items()):
             if f != field:
                 continue
             errs = [d[0] for d in draws]
             ses = [d[1] for d in draws]
-            cov = sum(abs(e) <= 3 * s for e, s in draws)
+            stats = [d[2] for d in draws]
+            cov = sum(abs(e) <= 3 * s for e, s, _ in draws)
             covered += cov
             total += len(draws)
             rms_se = math.sqrt(sum(s * s for s in ses) / len(ses))
+            rms_stat = math.sqrt(sum(s * s for s in stats) / len(stats))
             sd = statistics.stdev(errs) if len(errs) > 1 else float("nan")
             mean = statistics.fmean(errs)
-            z = math.sqrt(statistics.fmean([(e / s) ** 2 for e, s in draws if s > 0] or [0.0]))
+            z = math.sqrt(statistics.fmean([(e / s) ** 2 for e, s, _ in draws if s > 0] or [0.0]))
             if len(errs) >= 4 and rms_se > 0:
                 ratios.append((sd / rms_se, name))
                 zs.append(z)
+            if len(errs) >= 4 and rms_stat > 0:
+                stat_ratios.append(sd / rms_stat)
             if args.verbose:
                 unit = "rel" if rel else "deg" if "Deg" in field else "mm"
-                print("%-28s %-15s %3d %10.3g %10.3g %10.3g %7.2f %3d/%-2d %8.2f %6.2f  %s" %
+                print("%-28s %-15s %3d %10.3g %10.3g %10.3g %7.2f %10.3g %8.2f %3d/%-2d %8.2f %6.2f  %s" %
                       (name, field, len(errs), mean, sd, rms_se,
-                       sd / rms_se if rms_se else float("nan"), cov, len(errs),
+                       sd / rms_se if rms_se else float("nan"), rms_stat,
+                       sd / rms_stat if rms_stat else float("nan"), cov, len(errs),
                        mean / rms_se if rms_se else float("nan"), z, unit))
         if not total or not ratios:
             continue
@@ -155,6 +164,12 @@ def main():
               "within 1.5x on %d/%d fixtures; rms z median %.2f" %
               (field, covered, total, 100.0 * covered / total, statistics.median(rs),
                rs[0], rs[-1], within, len(rs), statistics.median(zs)))
+        if stat_ratios:
+            ss = sorted(stat_ratios)
+            print("%-15s sd/statistical share median %.2f (range %.2f-%.2f), within 1.5x on "
+                  "%d/%d fixtures" %
+                  ("", statistics.median(ss), ss[0], ss[-1],
+                   sum(1 for r in ss if 1 / 1.5 <= r <= 1.5), len(ss)))
 
 
 if __name__ == "__main__":

@@ -171,9 +171,14 @@ TEST_F(EndToEnd, JointEstimateOverFourPhaseAngles) {
   ASSERT_EQ(local.exit_code, 0) << local.err;
   const std::vector<std::string> lines = absl::StrSplit(remote.out, '\n', absl::SkipEmpty());
   ASSERT_EQ(lines.size(), images.size() + 1) << remote.out;
-  double smallest = 1e9;
+  double smallest_statistical = 1e9;
+  double least_common = 1e9;
+  double most_common = 0.0;
   for (std::size_t i = 0; i < images.size(); ++i) {
-    smallest = std::min(smallest, ParseReply(lines[i]).max_slope().stderr());
+    const v1::Measurement m = ParseReply(lines[i]).max_slope();
+    smallest_statistical = std::min(smallest_statistical, m.statistical());
+    least_common = std::min(least_common, m.systematic_common());
+    most_common = std::max(most_common, m.systematic_common());
   }
   google::protobuf::Struct joint;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(lines.back(), &joint).ok()) << lines.back();
@@ -182,7 +187,16 @@ TEST_F(EndToEnd, JointEstimateOverFourPhaseAngles) {
   EXPECT_EQ(j.fields().at("slopePhotographs").number_value(), 4);
   const auto& m = j.fields().at("maxSlope").struct_value().fields();
   EXPECT_TRUE(m.at("resolved").bool_value());
-  EXPECT_LT(m.at("stderr").number_value(), smallest);
+  // The statistical share shrinks below every photograph's; the common
+  // share (the comb fit's floor, the limb's allowance) is theirs, averaged.
+  const double statistical = m.at("statistical").number_value();
+  const double systematic = m.at("systematic").number_value();
+  const double common = m.at("systematicCommon").number_value();
+  EXPECT_LT(statistical, smallest_statistical);
+  EXPECT_GE(common, least_common * (1.0 - 1e-9));
+  EXPECT_LE(common, most_common * (1.0 + 1e-9));
+  EXPECT_LE(common, systematic);
+  EXPECT_NEAR(std::hypot(statistical, systematic), m.at("stderr").number_value(), 1e-12);
   EXPECT_NEAR(m.at("value").number_value(), 0.2356, 3.0 * m.at("stderr").number_value());
   // In-process and through the daemon: the same joint line.
   const std::vector<std::string> local_lines = absl::StrSplit(local.out, '\n', absl::SkipEmpty());

@@ -158,13 +158,15 @@ constexpr double kSoftEdgePx = 2.5;
 
 // Standard error of the radius from the two limb lines: each line's own
 // scatter and its systematic allowance, halved (the radius is half the
-// distance between the limbs).
-double RadiusStderr(const Line& left, double left_systematic, const Line& right,
-                    double right_systematic) {
-  return 0.5 * std::sqrt(left.at_center_stderr * left.at_center_stderr +
-                         left_systematic * left_systematic +
-                         right.at_center_stderr * right.at_center_stderr +
-                         right_systematic * right_systematic);
+// distance between the limbs); the allowances' share apart.
+void SetRadiusStderr(const Line& left, double left_systematic, const Line& right,
+                     double right_systematic, CylinderGeometry* g) {
+  const double systematic2 =
+      left_systematic * left_systematic + right_systematic * right_systematic;
+  g->radius_stderr_px = 0.5 * std::sqrt(left.at_center_stderr * left.at_center_stderr +
+                                        right.at_center_stderr * right.at_center_stderr +
+                                        systematic2);
+  g->radius_systematic_px = 0.5 * std::sqrt(systematic2);
 }
 
 // The limb to a fraction of a pixel: the band's pixels from two outside the
@@ -550,7 +552,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   g.axis_angle_rad = std::atan(-slope);
   g.radius_px = 0.5 * (right.at_center - left.at_center) * std::cos(g.axis_angle_rad);
   g.limb_rms_px = std::sqrt(0.5 * (left.rms * left.rms + right.rms * right.rms));
-  g.radius_stderr_px = RadiusStderr(left, kLimbSystematicPx, right, kLimbSystematicPx);
+  SetRadiusStderr(left, kLimbSystematicPx, right, kLimbSystematicPx, &g);
   g.left_observed = true;
   g.right_observed = true;
   if (g.radius_px < options.min_radius_px) {
@@ -631,7 +633,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     g.axis_angle_rad = std::atan(-0.5 * (l.slope + r.slope));
     g.radius_px = 0.5 * (r.at_center - l.at_center) * std::cos(g.axis_angle_rad);
     g.limb_rms_px = std::sqrt(0.5 * (l.rms * l.rms + r.rms * r.rms));
-    g.radius_stderr_px = RadiusStderr(l, kLimbSystematicPx, r, kLimbSystematicPx);
+    SetRadiusStderr(l, kLimbSystematicPx, r, kLimbSystematicPx, &g);
   }
   // With the phase angle known, the lobe must stand near the mirror azimuth
   // α/2. When it does not, the edge on the side away from the light may be
@@ -793,9 +795,9 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
         if ((!flat || soft_unlit || inferred_miss < 0.5 * miss) &&
             inferred_miss <= options.min_lobe_offset_to_infer_rad) {
           const bool right_lit = options.phase_angle_rad > 0;
-          inferred->radius_stderr_px =
-              RadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx, final_right,
-                           right_lit ? kLimbSystematicPx : kInferredLimbPx);
+          SetRadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx,
+                          final_right, right_lit ? kLimbSystematicPx : kInferredLimbPx,
+                          &*inferred);
           return *inferred;
         }
         why_not_inferred = absl::StrCat(

@@ -37,11 +37,18 @@ struct CylinderGeometry {
   // inferred one). It sets the scale from pixels to azimuth, so it enters
   // the wavelength in mm (and the max slope) in proportion.
   double radius_stderr_px = 0.0;
+  // The allowances' share of radius_stderr_px (the rest is the lines'
+  // scatter): repeated photographs of one set-up share it.
+  double radius_systematic_px = 0.0;
 
   // radius_stderr_px / radius_px: the relative error of the scale from
   // pixels to azimuth (0 for an empty geometry).
   double RelativeRadiusError() const {
     return radius_px > 0.0 ? radius_stderr_px / radius_px : 0.0;
+  }
+  // radius_systematic_px / radius_px.
+  double RelativeRadiusSystematic() const {
+    return radius_px > 0.0 ? radius_systematic_px / radius_px : 0.0;
   }
 
   // Axis column at image row y.

@@ -373,8 +373,9 @@ absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,
   // leaves out (glints located on a pixel grid, a profile that is not an
   // exact sinusoid, the blur's pull on glints beside the caustics): see
   // GlintPeriodOptions::model_floor.
+  result.wavelength_systematic_mm = 0.0025 * lambda / std::sqrt(12.0);
   result.wavelength_stderr_mm =
-      std::sqrt(spread * spread + lean * lean + std::pow(0.0025 * lambda, 2) / 12.0 +
+      std::sqrt(spread * spread + lean * lean + std::pow(result.wavelength_systematic_mm, 2) +
                 std::pow(options.model_floor * lambda, 2));
   result.resolved = true;
   return result;

@@ -53,6 +53,10 @@ struct GlintPeriodResult {
   bool resolved = false;
   double wavelength_mm = 0.0;
   double wavelength_stderr_mm = 0.0;
+  // Its share from the period grid's step (the rest, model_floor included,
+  // is scatter: the floor makes up spread over noise draws that the
+  // bootstrap misses).
+  double wavelength_systematic_mm = 0.0;
   double px_per_period = 0.0;
   int rows_used = 0;
   int glints_used = 0;

@@ -674,13 +674,16 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     const double q_left = quantisation_at(result.left_peak_rad);
     const double q_right = quantisation_at(result.right_peak_rad);
     const double q2 = q_left * q_left + q_right * q_right;
-    result.spacing_stderr_rad = std::sqrt(std::pow(Stddev(spacings), 2) + q2 +
-                                          2.0 * comb_rad * comb_rad + pull_rad * pull_rad);
-    result.mirror_stderr_rad = std::sqrt(std::pow(Stddev(mirrors), 2) + 0.25 * q2 +
-                                         0.5 * comb_rad * comb_rad);
+    result.spacing_systematic_rad = std::sqrt(q2 + 2.0 * comb_rad * comb_rad + pull_rad * pull_rad);
+    result.mirror_systematic_rad = std::sqrt(0.25 * q2 + 0.5 * comb_rad * comb_rad);
+    result.spacing_stderr_rad = std::hypot(Stddev(spacings), result.spacing_systematic_rad);
+    result.mirror_stderr_rad = std::hypot(Stddev(mirrors), result.mirror_systematic_rad);
     result.max_slope = std::tan(0.5 * result.spacing_rad);
     const double sec = 1.0 / std::cos(0.5 * result.spacing_rad);
     result.max_slope_stderr = 0.5 * sec * sec * result.spacing_stderr_rad;
+    result.max_slope_systematic = 0.5 * sec * sec * result.spacing_systematic_rad;
+    result.spacing_common_rad = pull_rad;
+    result.max_slope_common = 0.5 * sec * sec * pull_rad;
     result.warnings.push_back(
         "peak picking: blur pulls each caustic peak inward, so the spacing "
         "and max slope are biased low by up to about the peak width; "
@@ -701,7 +704,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     for (int k = 0; k < options.bootstrap_samples; ++k) {
       mirrors.push_back(azimuth_of(NearestPeak(resample(), peak, 3.0)));
     }
-    result.mirror_stderr_rad = std::hypot(Stddev(mirrors), quantisation_at(result.mirror_rad));
+    result.mirror_systematic_rad = quantisation_at(result.mirror_rad);
+    result.mirror_stderr_rad = std::hypot(Stddev(mirrors), result.mirror_systematic_rad);
     result.warnings.push_back(absl::StrFormat(
         "a single specular peak (FWHM %.2f deg): any split narrower than "
         "about that is not resolved, so peak spacing and max slope are "

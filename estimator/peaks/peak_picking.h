@@ -67,6 +67,16 @@ struct PeakPickingResult {
   // Mirror azimuth: midpoint of the peaks, or the single peak.
   double mirror_rad = 0.0;
   double mirror_stderr_rad = 0.0;
+  // The allowances' share of the three errors above (peaks located on the
+  // profile's bins, the comb of glints, the blur's pull); the rest is the
+  // bootstrap's scatter.
+  double spacing_systematic_rad = 0.0;
+  double max_slope_systematic = 0.0;
+  double mirror_systematic_rad = 0.0;
+  // Of those, the blur's pull (always inward, so shared by photographs at
+  // other phase angles); the bins and the comb move with the geometry.
+  double spacing_common_rad = 0.0;
+  double max_slope_common = 0.0;
   // Significance of the split: the smaller of the two peaks' prominences,
   // in pixel-noise standard errors (0 for a single peak).
   double dip_sigmas = 0.0;

@@ -78,9 +78,11 @@ std::vector<ChannelSummary> SummariseChannels(const Image& image,
     absl::StatusOr<PeakPickingResult> peaks = PickPeaks(*profile, alpha, projection, options.peaks);
     if (peaks.ok()) {
       summary.model = peaks->model;
-      summary.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true};
+      summary.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true, 0.0,
+                                      peaks->mirror_systematic_rad};
       if (peaks->split_resolved) {
-        summary.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true};
+        summary.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true, 0.0,
+                                    peaks->spacing_systematic_rad, peaks->spacing_common_rad};
       }
     }
     // The body beside the lobe, lit bins only: a + b/cos φ + d·cos(φ − α)
@@ -261,7 +263,8 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
     }
     const double se =
         misfit * std::hypot(comb.mirror_offset_stderr_rad, options.mirror_floor_rad);
-    estimate->specular_azimuth_rad = {phi, se, true};
+    const double floor = misfit * options.mirror_floor_rad;
+    estimate->specular_azimuth_rad = {phi, se, true, 0.0, floor, floor};
     // The phase-angle check from the glints (peak picking's is made only
     // when there is no comb fit).
     if (std::fabs(comb.mirror_offset_rad) > 3.0 * se + options.mirror_tolerance_rad) {
@@ -277,19 +280,24 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
   // The radius sets the scale from pixels to azimuth: its relative error is
   // the wavelength's (arc length R·φ) and, to first order, the max slope's
   // (the glints' azimuths from the mirror scale with it).
+  // The floors and the limb's allowance are the systematic share.
   const double scale = estimate->cylinder.RelativeRadiusError();
+  const double scale_sys = estimate->cylinder.RelativeRadiusSystematic();
   const double m = comb.max_slope;
   const double m_se =
       std::hypot(misfit * std::hypot(comb.max_slope_stderr, options.slope_floor * m), scale * m);
+  const double m_sys = std::hypot(misfit * options.slope_floor * m, scale_sys * m);
   const double lambda = comb.wavelength_mm;
   const double lambda_se = std::hypot(
       misfit * std::hypot(comb.wavelength_stderr_mm, options.wavelength_floor * lambda),
       scale * lambda);
-  estimate->max_slope = {m, m_se, true};
-  estimate->peak_spacing_rad = {PeakSpacingRad(m), 2.0 * m_se / (1.0 + m * m), true};
-  estimate->wavelength_mm = {lambda, lambda_se, true};
-  const double h0 = m * lambda / (2.0 * M_PI);
-  estimate->amplitude_mm = {h0, h0 * std::hypot(m_se / m, lambda_se / lambda), true};
+  const double lambda_sys =
+      std::hypot(misfit * options.wavelength_floor * lambda, scale_sys * lambda);
+  estimate->max_slope = {m, m_se, true, 0.0, m_sys, m_sys};
+  estimate->peak_spacing_rad = SpacingFromSlope(estimate->max_slope);
+  estimate->wavelength_mm = {lambda, lambda_se, true, 0.0, lambda_sys, lambda_sys};
+  estimate->amplitude_mm = AmplitudeFrom(ProfileModel::kSinusoid, estimate->max_slope,
+                                         estimate->wavelength_mm);
   estimate->method = "comb-fit";
   for (CandidateScore& c : estimate->candidates) c.selected = false;
   estimate->candidates.push_back(
@@ -409,12 +417,12 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   const double lambda = period->wavelength_mm;
   const double lambda_se =
       std::hypot(period->wavelength_stderr_mm, lambda * cylinder.RelativeRadiusError());
-  estimate->wavelength_mm = {lambda, lambda_se, true};
-  // Sinusoid h0·sin(2πx/λ): m = 2π·h0/λ.
-  const double m = estimate->max_slope.value;
-  const double h0 = m * lambda / (2.0 * M_PI);
-  const double rel = std::hypot(estimate->max_slope.stderr_value / m, lambda_se / lambda);
-  estimate->amplitude_mm = {h0, h0 * rel, true};
+  const double lambda_sys =
+      std::hypot(period->wavelength_systematic_mm, lambda * cylinder.RelativeRadiusSystematic());
+  estimate->wavelength_mm = {lambda, lambda_se, true, 0.0, lambda_sys,
+                             lambda * cylinder.RelativeRadiusSystematic()};
+  estimate->amplitude_mm =
+      AmplitudeFrom(ProfileModel::kSinusoid, estimate->max_slope, estimate->wavelength_mm);
 }
 
 // `accurate` mode: least-squares fits of every candidate model to the
@@ -559,10 +567,18 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
     const double fit_dspacing = 2.0 * best.max_slope_stderr / (1.0 + best.max_slope * best.max_slope);
     const double dspacing = std::max(fit_dspacing, peaks.split_resolved ? peaks.spacing_stderr_rad : 0.0);
     const double sec = 1.0 / std::cos(0.5 * spacing);
-    estimate->peak_spacing_rad = {spacing, dspacing, true};
-    estimate->max_slope = {best.max_slope, 0.5 * sec * sec * dspacing, true};
-    estimate->specular_azimuth_rad.stderr_value =
-        std::max(best.mirror_stderr_rad, peaks.mirror_stderr_rad);
+    // The systematic share: peak picking's allowances when its error is
+    // kept, none when the fit's covariance is larger.
+    const bool kept = dspacing > fit_dspacing;
+    const double sys = kept ? peaks.spacing_systematic_rad : 0.0;
+    const double common = kept ? peaks.spacing_common_rad : 0.0;
+    estimate->peak_spacing_rad = {spacing, dspacing, true, 0.0, sys, common};
+    estimate->max_slope = {best.max_slope, 0.5 * sec * sec * dspacing, true, 0.0,
+                           0.5 * sec * sec * sys, 0.5 * sec * sec * common};
+    if (peaks.mirror_stderr_rad > best.mirror_stderr_rad) {
+      estimate->specular_azimuth_rad = {best.mirror_rad, peaks.mirror_stderr_rad, true, 0.0,
+                                        peaks.mirror_systematic_rad};
+    }
   }
   estimate->warnings.push_back(
       "accurate mode: the models were fitted by least squares and the lowest "
@@ -623,10 +639,13 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   estimate.profile = *std::move(profile);
   estimate.smoothing_rad = peaks->smoothing_rad;
   estimate.model = peaks->model;
-  estimate.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true};
+  estimate.specular_azimuth_rad = {peaks->mirror_rad, peaks->mirror_stderr_rad, true, 0.0,
+                                   peaks->mirror_systematic_rad};
   if (peaks->split_resolved) {
-    estimate.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true};
-    estimate.max_slope = {peaks->max_slope, peaks->max_slope_stderr, true};
+    estimate.peak_spacing_rad = {peaks->spacing_rad, peaks->spacing_stderr_rad, true, 0.0,
+                                 peaks->spacing_systematic_rad, peaks->spacing_common_rad};
+    estimate.max_slope = {peaks->max_slope, peaks->max_slope_stderr, true, 0.0,
+                          peaks->max_slope_systematic, peaks->max_slope_common};
   } else if (const double bound = MaxSlopeUpperBound(estimate.profile, peaks->mirror_rad,
                                                       acquisition.phase_angle_rad);
              bound > 0.0) {
@@ -767,7 +786,37 @@ Quantity MaxInclinationFromSlope(const Quantity& max_slope) {
     return {0.0, 0.0, false, max_slope.upper_bound > 0.0 ? std::atan(max_slope.upper_bound) : 0.0};
   }
   const double m = max_slope.value;
-  return {std::atan(m), max_slope.stderr_value / (1.0 + m * m), true};
+  const double d = 1.0 / (1.0 + m * m);
+  return {std::atan(m), max_slope.stderr_value * d, true, 0.0, max_slope.systematic * d,
+          max_slope.common * d};
+}
+
+Quantity SpacingFromSlope(const Quantity& max_slope) {
+  if (!max_slope.resolved) {
+    return {0.0, 0.0, false,
+            max_slope.upper_bound > 0.0 ? PeakSpacingRad(max_slope.upper_bound) : 0.0};
+  }
+  const double m = max_slope.value;
+  const double d = 2.0 / (1.0 + m * m);
+  return {PeakSpacingRad(m), max_slope.stderr_value * d, true, 0.0, max_slope.systematic * d,
+          max_slope.common * d};
+}
+
+Quantity AmplitudeFrom(ProfileModel model, const Quantity& max_slope,
+                       const Quantity& wavelength_mm) {
+  if (!max_slope.resolved || !wavelength_mm.resolved || !(max_slope.value > 0.0) ||
+      !(wavelength_mm.value > 0.0) || model == ProfileModel::kSmooth) {
+    return {};
+  }
+  const double factor = model == ProfileModel::kSinusoid ? 1.0 / (2.0 * M_PI) : 0.25;
+  const double h0 = factor * max_slope.value * wavelength_mm.value;
+  const double rel = std::hypot(max_slope.stderr_value / max_slope.value,
+                                wavelength_mm.stderr_value / wavelength_mm.value);
+  const double rel_sys = std::hypot(max_slope.systematic / max_slope.value,
+                                    wavelength_mm.systematic / wavelength_mm.value);
+  const double rel_common = std::hypot(max_slope.common / max_slope.value,
+                                       wavelength_mm.common / wavelength_mm.value);
+  return {h0, h0 * rel, true, 0.0, h0 * rel_sys, h0 * rel_common};
 }
 
 std::string Estimate::BriefReport() const {

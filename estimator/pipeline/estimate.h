@@ -4,6 +4,7 @@
 #ifndef WEAVEFIT_ESTIMATOR_PIPELINE_ESTIMATE_H_
 #define WEAVEFIT_ESTIMATOR_PIPELINE_ESTIMATE_H_
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -71,6 +72,24 @@ struct Quantity {
   bool resolved = false;
   // When !resolved: an upper bound the photograph does support (0 = none).
   double upper_bound = 0.0;
+  // The part of stderr_value that is an allowance for what the models leave
+  // out (the error floors, the limb edge's placement, peaks located on the
+  // profile's bins), as opposed to what the photograph's noise and texture
+  // scatter: stderr_value² = statistical² + systematic². Repeated
+  // photographs of one set-up share it; the statistical part is what they
+  // spread by.
+  double systematic = 0.0;
+  // The part of `systematic` that photographs of the sample at other phase
+  // angles or placements share too (the models' floors, the limb's
+  // allowance: biases of one sign), so that a joint estimate does not
+  // average it away. The rest (peaks on the bins, the glint comb's
+  // positions) moves with the geometry and averages like noise.
+  double common = 0.0;
+
+  double Statistical() const {
+    const double s2 = stderr_value * stderr_value - systematic * systematic;
+    return s2 > 0.0 ? std::sqrt(s2) : 0.0;
+  }
 };
 
 struct CandidateScore {
@@ -121,6 +140,17 @@ struct ChannelSummary {
 // gives an unresolved inclination bounded by arctan of the slope's bound
 // (0 = no bound).
 Quantity MaxInclinationFromSlope(const Quantity& max_slope);
+
+// The peak spacing 2·arctan(m) of a resolved max slope, its errors (both
+// shares) carried through 2/(1 + m²). An unresolved slope gives an
+// unresolved spacing bounded by the slope's bound.
+Quantity SpacingFromSlope(const Quantity& max_slope);
+
+// The amplitude h0 (DESIGN.md §2): m·λ/(2π) for a sinusoid, m·λ/4 for a
+// sawtooth; relative errors, and their systematic shares, in quadrature.
+// Unresolved unless both are resolved.
+Quantity AmplitudeFrom(ProfileModel model, const Quantity& max_slope,
+                       const Quantity& wavelength_mm);
 
 struct Estimate {
   ProfileModel model = ProfileModel::kSmooth;

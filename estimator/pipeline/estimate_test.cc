@@ -57,6 +57,27 @@ std::string Encoded(const Image& image, EncodeFormat format) {
   return bytes.ok() ? *bytes : std::string();
 }
 
+// A resolved quantity's error in its shares (Quantity::systematic):
+// statistical² + systematic² = stderr², common ≤ systematic.
+void ExpectShares(const Quantity& q, const char* name) {
+  if (!q.resolved) return;
+  EXPECT_GE(q.systematic, 0.0) << name;
+  EXPECT_LE(q.systematic, q.stderr_value) << name;
+  EXPECT_GE(q.common, 0.0) << name;
+  EXPECT_LE(q.common, q.systematic + 1e-15) << name;
+  EXPECT_NEAR(std::hypot(q.Statistical(), q.systematic), q.stderr_value, 1e-12 * q.stderr_value)
+      << name;
+}
+
+void ExpectAllShares(const Estimate& e) {
+  ExpectShares(e.peak_spacing_rad, "spacing");
+  ExpectShares(e.max_slope, "max slope");
+  ExpectShares(e.max_inclination_rad, "inclination");
+  ExpectShares(e.wavelength_mm, "wavelength");
+  ExpectShares(e.amplitude_mm, "amplitude");
+  ExpectShares(e.specular_azimuth_rad, "mirror");
+}
+
 void ExpectSinusoidEstimate(const Estimate& e, double tolerance_deg) {
   const RenderTruth& truth = SinusoidRender().truth;
   EXPECT_EQ(e.model, ProfileModel::kSinusoid) << ProfileModelName(e.model);
@@ -102,10 +123,22 @@ void ExpectSinusoidEstimate(const Estimate& e, double tolerance_deg) {
   // A sinusoid whose period is resolved is read from its comb of glints,
   // otherwise from the profile's peaks.
   EXPECT_EQ(e.method, e.wavelength_mm.resolved ? "comb-fit" : "peak-picking");
+  // The comb fit's systematic share is its floors and the limb's
+  // allowance, all common to other photographs of the sample; what the
+  // photograph's noise scatters is the rest.
+  if (e.method == "comb-fit") {
+    const CombFitOptions floors;
+    EXPECT_GE(e.max_slope.systematic, floors.slope_floor * e.max_slope.value);
+    EXPECT_GE(e.wavelength_mm.systematic, floors.wavelength_floor * e.wavelength_mm.value);
+    EXPECT_DOUBLE_EQ(e.max_slope.common, e.max_slope.systematic);
+    EXPECT_DOUBLE_EQ(e.wavelength_mm.common, e.wavelength_mm.systematic);
+    EXPECT_GT(e.max_slope.Statistical(), 0.0);
+  }
   EXPECT_GT(e.profile.NumBins(), 0);
   const std::string brief = e.BriefReport();
   EXPECT_NE(brief.find("SINUSOID"), std::string::npos) << brief;
   EXPECT_NE(brief.find("spacing"), std::string::npos) << brief;
+  ExpectAllShares(e);
 }
 
 std::vector<std::string> Stages(const Estimate& e) {
@@ -230,6 +263,11 @@ TEST(EstimateTest, PerspectiveSawtooth) {
   EXPECT_NEAR(e->peak_spacing_rad.value / kDeg, 17.0615, 0.3);
   // Mirror point (α + v)/2 with v ≈ −0.39° at φ = 15°, D = 900 mm.
   EXPECT_NEAR(e->specular_azimuth_rad.value / kDeg, 14.8, 0.2);
+  // Peak picking's systematic share: at least the peaks' placement on the
+  // profile's bins, which moves with the geometry (not common).
+  ExpectAllShares(*e);
+  EXPECT_GT(e->peak_spacing_rad.systematic, 0.0);
+  EXPECT_LT(e->peak_spacing_rad.common, e->peak_spacing_rad.systematic);
 }
 
 // A coloured cloth: a Lambertian term under the lobe, and a body as dark as

@@ -21,29 +21,56 @@ struct Combined {
   double chi2 = 0.0;
 };
 
-// Inverse-variance weighted mean of the resolved values with a positive
-// error; the error scaled by sqrt(reduced chi-square) when that exceeds 1.
+// Weighted mean of the resolved values with a positive error. The shares of
+// the errors (Quantity) combine by what they are: the statistical shares,
+// and the systematic ones that move with the geometry (peaks on the bins),
+// as independent errors, shrinking with more photographs; the common shares
+// (the models' floors, the limb's allowance) as fully correlated, their
+// weighted mean, which no number of photographs reduces. A share every
+// photograph has alike moves them all alike and says nothing about which
+// is better, so the weights are the inverse independent variances (the
+// generalised least-squares mean under that covariance), and the
+// photographs' agreement is judged against their independent errors: above
+// a reduced chi-square of 1 the independent share is scaled by its root.
 Combined WeightedMean(const std::vector<Quantity>& values) {
   Combined out;
-  double sum_w = 0.0;
-  double sum_wx = 0.0;
+  struct Term {
+    double value, statistical, moving, common;
+    double Independent2() const { return statistical * statistical + moving * moving; }
+  };
+  std::vector<Term> terms;
   for (const Quantity& q : values) {
     if (!q.resolved || !(q.stderr_value > 0.0)) continue;
-    const double w = 1.0 / (q.stderr_value * q.stderr_value);
-    sum_w += w;
-    sum_wx += w * q.value;
-    ++out.count;
+    const double systematic = std::min(q.systematic, q.stderr_value);
+    const double common = std::min(q.common, systematic);
+    Term t{q.value, q.Statistical(), std::sqrt(systematic * systematic - common * common), common};
+    // At least a tenth of the stated error counts as independent, so that
+    // a photograph whose error is nearly all floor cannot take all the
+    // weight.
+    if (t.Independent2() < 0.01 * q.stderr_value * q.stderr_value) {
+      t.statistical = 0.1 * q.stderr_value;
+    }
+    terms.push_back(t);
   }
+  out.count = static_cast<int>(terms.size());
   if (out.count == 0) return out;
+  double sum_w = 0.0, sum_wx = 0.0, sum_w_common = 0.0, sum_w2_stat2 = 0.0, sum_w2_moving2 = 0.0;
+  for (const Term& t : terms) {
+    const double w = 1.0 / t.Independent2();
+    sum_w += w;
+    sum_wx += w * t.value;
+    sum_w_common += w * t.common;
+    sum_w2_stat2 += w * w * t.statistical * t.statistical;
+    sum_w2_moving2 += w * w * t.moving * t.moving;
+  }
   const double mean = sum_wx / sum_w;
   double chi2 = 0.0;
-  for (const Quantity& q : values) {
-    if (!q.resolved || !(q.stderr_value > 0.0)) continue;
-    const double d = (q.value - mean) / q.stderr_value;
-    chi2 += d * d;
-  }
+  for (const Term& t : terms) chi2 += (t.value - mean) * (t.value - mean) / t.Independent2();
   out.chi2 = out.count > 1 ? chi2 / (out.count - 1) : 0.0;
-  out.quantity = {mean, std::sqrt(1.0 / sum_w) * std::sqrt(std::max(1.0, out.chi2)), true};
+  const double statistical = std::sqrt(sum_w2_stat2) / sum_w * std::sqrt(std::max(1.0, out.chi2));
+  const double common = sum_w_common / sum_w;
+  const double systematic = std::hypot(std::sqrt(sum_w2_moving2) / sum_w, common);
+  out.quantity = {mean, std::hypot(statistical, systematic), true, 0.0, systematic, common};
   return out;
 }
 
@@ -110,8 +137,7 @@ absl::StatusOr<JointEstimate> CombineEstimates(const std::vector<PhotographEstim
     if (m.count > 0) {
       joint.max_slope = m.quantity;
       const double s = m.quantity.value;
-      joint.peak_spacing_rad = {2.0 * std::atan(s), 2.0 * m.quantity.stderr_value / (1.0 + s * s),
-                                true};
+      joint.peak_spacing_rad = SpacingFromSlope(m.quantity);
       for (const PhotographEstimate& p : photographs) {
         if (!p.max_slope.resolved && p.max_slope.upper_bound > 0.0 &&
             s > p.max_slope.upper_bound + 2.0 * m.quantity.stderr_value) {
@@ -143,15 +169,7 @@ absl::StatusOr<JointEstimate> CombineEstimates(const std::vector<PhotographEstim
           std::sqrt(lambda.chi2), lambda.chi2));
     }
   }
-  // Amplitude (DESIGN.md §2): m·λ/(2π) for the sinusoid, m·λ/4 for the
-  // sawtooth; relative errors added in quadrature.
-  if (joint.max_slope.resolved && joint.wavelength_mm.resolved) {
-    const double factor = joint.model == ProfileModel::kSinusoid ? 1.0 / (2.0 * M_PI) : 0.25;
-    const double h0 = factor * joint.max_slope.value * joint.wavelength_mm.value;
-    const double rel = std::hypot(joint.max_slope.stderr_value / joint.max_slope.value,
-                                  joint.wavelength_mm.stderr_value / joint.wavelength_mm.value);
-    joint.amplitude_mm = {h0, h0 * rel, true};
-  }
+  joint.amplitude_mm = AmplitudeFrom(joint.model, joint.max_slope, joint.wavelength_mm);
   joint.max_inclination_rad = MaxInclinationFromSlope(joint.max_slope);
   return joint;
 }

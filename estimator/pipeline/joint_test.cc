@@ -61,6 +61,57 @@ TEST(JointTest, DisagreementScalesTheErrorAndSaysSo) {
   EXPECT_FALSE(j->amplitude_mm.resolved);
 }
 
+// Three photographs each stating 0.0005 in m, of which 0.0004 is the
+// models' allowance: averaging shrinks the statistical share by √3, not the
+// systematic one, and the reply keeps the two apart.
+TEST(JointTest, TheSystematicShareDoesNotAverageAway) {
+  std::vector<PhotographEstimate> photos;
+  for (const char* name : {"10", "60", "110"}) {
+    PhotographEstimate p = Photo(name, ProfileModel::kSinusoid, 0.2356, 0.0005, 2.88, 0.002);
+    p.max_slope.systematic = 0.0004;
+    p.max_slope.common = 0.0004;
+    p.wavelength_mm.systematic = 0.0012;
+    p.wavelength_mm.common = 0.0012;
+    photos.push_back(p);
+  }
+  absl::StatusOr<JointEstimate> j = CombineEstimates(photos);
+  ASSERT_TRUE(j.ok()) << j.status();
+  EXPECT_NEAR(j->max_slope.systematic, 0.0004, 1e-15);
+  EXPECT_NEAR(j->max_slope.Statistical(), 0.0003 / std::sqrt(3.0), 1e-12);
+  EXPECT_NEAR(j->max_slope.stderr_value, std::hypot(0.0003 / std::sqrt(3.0), 0.0004), 1e-12);
+  EXPECT_NEAR(j->wavelength_mm.Statistical(), 0.0016 / std::sqrt(3.0), 1e-12);
+  EXPECT_NEAR(j->wavelength_mm.systematic, 0.0012, 1e-15);
+  // Carried to the spacing, the inclination and the amplitude.
+  const double d = 2.0 / (1.0 + 0.2356 * 0.2356);
+  EXPECT_NEAR(j->peak_spacing_rad.systematic, 0.0004 * d, 1e-15);
+  EXPECT_NEAR(j->max_inclination_rad.systematic, 0.0002 * d, 1e-15);
+  ASSERT_TRUE(j->amplitude_mm.resolved);
+  EXPECT_NEAR(j->amplitude_mm.systematic / j->amplitude_mm.value,
+              std::hypot(0.0004 / 0.2356, 0.0012 / 2.88), 1e-12);
+  EXPECT_LT(j->amplitude_mm.systematic, j->amplitude_mm.stderr_value);
+  EXPECT_NEAR(j->amplitude_mm.common, j->amplitude_mm.systematic, 1e-15);
+}
+
+// Peaks located on the profile's bins fall elsewhere on the pixel grid at
+// each phase angle: that systematic share averages like noise, the common
+// one (the blur's pull) does not.
+TEST(JointTest, OnlyTheCommonShareOfTheSystematicOneStays) {
+  std::vector<PhotographEstimate> photos;
+  for (const char* name : {"10", "60", "110", "150"}) {
+    PhotographEstimate p = Photo(name, ProfileModel::kSawtooth, 0.2, 0.005);
+    p.max_slope.systematic = 0.004;  // statistical 0.003
+    p.max_slope.common = 0.002;      // moving with the geometry sqrt(0.004² − 0.002²)
+    photos.push_back(p);
+  }
+  absl::StatusOr<JointEstimate> j = CombineEstimates(photos);
+  ASSERT_TRUE(j.ok()) << j.status();
+  EXPECT_NEAR(j->max_slope.Statistical(), 0.003 / 2.0, 1e-12);
+  EXPECT_NEAR(j->max_slope.common, 0.002, 1e-15);
+  EXPECT_NEAR(j->max_slope.systematic, std::hypot(std::sqrt(0.004 * 0.004 - 0.002 * 0.002) / 2.0, 0.002),
+              1e-12);
+  EXPECT_LT(j->max_slope.stderr_value, 0.005);
+}
+
 TEST(JointTest, TheMajorityModelWinsAndTheOthersAreLeftOut) {
   absl::StatusOr<JointEstimate> j = CombineEstimates(
       {Photo("a", ProfileModel::kSinusoid, 0.24, 0.01), Photo("b", ProfileModel::kSinusoid, 0.24, 0.01),

@@ -3,6 +3,7 @@
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -40,7 +41,8 @@ ProfileModel ModelFromProto(v1::ProfileModel model) {
 }
 
 Quantity QuantityFromProto(const v1::Measurement& m) {
-  return m.resolved() ? Quantity{m.value(), m.stderr(), true, 0.0}
+  return m.resolved() ? Quantity{m.value(), m.stderr(), true, 0.0, m.systematic(),
+                                 m.systematic_common()}
                       : Quantity{0.0, 0.0, false, m.upper_bound()};
 }
 
@@ -53,6 +55,9 @@ void SetMeasurement(const Quantity& q, double scale, v1::Measurement* out) {
   out->set_value(q.value * scale);
   out->set_stderr(q.stderr_value * scale);
   out->set_resolved(true);
+  out->set_statistical(q.Statistical() * scale);
+  out->set_systematic(std::min(q.systematic, q.stderr_value) * scale);
+  out->set_systematic_common(std::min({q.common, q.systematic, q.stderr_value}) * scale);
 }
 
 }  // namespace
@@ -112,6 +117,7 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
   c->set_left_limb_observed(e.cylinder.left_observed);
   c->set_right_limb_observed(e.cylinder.right_observed);
   c->set_radius_stderr_px(e.cylinder.radius_stderr_px);
+  c->set_radius_systematic_px(e.cylinder.radius_systematic_px);
   for (const CandidateScore& candidate : e.candidates) {
     v1::Candidate* out = reply.add_candidates();
     out->set_model(ModelToProto(candidate.model));
