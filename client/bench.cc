@@ -246,7 +246,8 @@ int RunBench(const BenchFlags& flags) {
   std::cout << "wrote " << csv_path << " and " << summary_path << "\n";
   if (flags.no_chart) return 0;
   // The chart: median time against median |spacing error|, the bars from the
-  // quartiles, one point per method, both axes logarithmic.
+  // quartiles, one point per method, both axes logarithmic; the labels
+  // alternately above and below their points, which may lie close.
   const std::string plot = flags.out_dir + "/speed_accuracy";
   std::string script = absl::StrCat(
       "set datafile separator ','\n"
@@ -259,7 +260,8 @@ int RunBench(const BenchFlags& flags) {
       "set offsets graph 0.1, graph 0.6, graph 0.3, graph 0.3\n"
       "plot_it = \"plot '", summary_path,
       "' every ::1 using 6:9:7:8:10:11 with xyerrorbars pt 7 ps 1.5 lw 2, '", summary_path,
-      "' every ::1 using 6:9:2 with labels left offset 1.5,0.8 font ',10'\"\n"
+      "' every ::1 using 6:($9*(int($0)%2 == 0 ? 1.7 : 0.55)):2 with labels left offset 1.5,0 "
+      "font ',10'\"\n"
       "set terminal pngcairo size 900,600\n"
       "set output '", plot, ".png'\n"
       "eval plot_it\n"
@@ -350,7 +352,7 @@ absl::Status SweepChart(const std::string& out_dir, const std::vector<SweepPoint
       "at a time)'\nset grid\nset key top left\n");
   for (const SweepAxis& axis : axes) {
     absl::StrAppend(&body, axis.log_x ? "set logscale x\n" : "unset logscale x\n",
-                    error_chart ? "set logscale y\nset yrange [0.005:30]\n"
+                    error_chart ? "set logscale y\nset yrange [0.0005:30]\n"
                                 : "unset logscale y\nset yrange [-0.05:1.05]\n",
                     "set xlabel '", axis.unit, "'\nplot ");
     for (std::size_t m = 0; m < modes.size(); ++m) {
