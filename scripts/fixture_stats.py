@@ -72,7 +72,7 @@ def main(modes, verbose=False):
         print(f"{mode}: model {right}/{total}; spacing |err| median {median(spacing):.2f}, "
               f"p90 {quantile(spacing, 0.9):.2f}, max {max(spacing, default=float('nan')):.2f} deg "
               f"(n={len(spacing)}); within 3 stderr {covered}/{compared}; max slope rel. median "
-              f"{100 * median(slope):.1f}%; wavelength resolved {len(wavelength)}, rel. median "
+              f"{100 * median(slope):.2f}%; wavelength resolved {len(wavelength)}, rel. median "
               f"{100 * median(wavelength):.2f}%; amplitude rel. median {100 * median(amplitude):.2f}%; "
               f"median time {median(times):.0f} ms; wrong: {', '.join(wrong) or 'none'}")
 
