@@ -162,8 +162,9 @@ TEST(CombFitTest, CoarseGauzeThroughThePipeline) {
 // The miss taken as linear over each of 8 sub-intervals per bin fell short
 // at the caustics, where it bends most, and the max slope came out 0.079 %
 // long at α = −60° (seeds 1-4; 0.011 % with 64 sub-intervals); the sum
-// extrapolated from 8 and 4 sub-intervals gives −0.003 to +0.006 %. The
-// radius's own error (it scales m) is taken out.
+// extrapolated from 8 and 4 sub-intervals gives within ±0.01 %. The
+// radius's own error is taken out: a radius short by a fraction ε spreads
+// the glints' azimuths and makes m long by about ε.
 TEST(CombFitTest, NoiseFreeMaxSlopeIsNotBiasedByTheQuadrature) {
   RenderScene scene = GauzeScene();
   scene.wavelength_mm = 2.0;
@@ -179,7 +180,7 @@ TEST(CombFitTest, NoiseFreeMaxSlopeIsNotBiasedByTheQuadrature) {
   ASSERT_EQ(e.method, "comb-fit") << Warnings(e);
   const double radius_error = e.cylinder.radius_px / r.truth.radius_px - 1.0;
   const double slope_error = e.max_slope.value / r.truth.max_slope - 1.0;
-  EXPECT_LT(std::fabs(slope_error - radius_error), 3e-4)
+  EXPECT_LT(std::fabs(slope_error + radius_error), 3e-4)
       << "max slope " << e.max_slope.value << " truth " << r.truth.max_slope << ", radius error "
       << radius_error;
 }
