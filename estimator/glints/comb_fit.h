@@ -57,9 +57,9 @@ struct CombFitOptions {
   // error, which scales both, is counted apart (ApplyCombFit). They are
   // the systematic share of the errors, common to every photograph of a
   // sample (Quantity::common). Measured on noise-free renders, the radius's
-  // error taken out: the max slope comes out within 0.01 % at −60° and 90°,
-  // 0.025 % long at 10° (gone with the axial threads dark; the cause is not
-  // found), the wavelength within 0.005 %. Over 8 noise draws of each
+  // error taken out (a radius short by ε makes m long by about ε): the max
+  // slope comes out within 0.001 % at 10° and mostly within 0.01-0.02 % at
+  // −60° and 90°, the wavelength within 0.005 %. Over 8 noise draws of each
   // fixture scene (scripts/noise_draws.py) the max slope's mean error on
   // the comb fixtures runs from −0.23 % (the cylinder's ends in view) to
   // +0.12 % (clipped glints), most within ±0.03 %: with a 0.1 % floor every
