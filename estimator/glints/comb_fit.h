@@ -32,7 +32,8 @@ struct CombFitOptions {
   // locally linear miss, the sum extrapolated from them and from half as
   // many (BinMean). Without the extrapolation the max slope of noise-free
   // 320×240 renders (11 px per period, α = −60°) came out 0.31 / 0.079 /
-  // 0.030 % long with 4 / 8 / 16; with it and 8, within 0.006 %.
+  // 0.030 % long with 4 / 8 / 16; with it and 8, within 0.009 % on three
+  // seeds of four (0.033 % on the fourth), the radius's error taken out.
   int subintervals = 8;
   // Iterations of the main solve. A tilted axis couples the row phases to
   // the period and the solve crawls: the 2° tilt fixture needed more than
