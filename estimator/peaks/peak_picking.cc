@@ -489,6 +489,16 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     return beta_left - beta_right;
   };
 
+  // The resamples draw runs of neighbouring row blocks (a circular moving
+  // block bootstrap), a quarter of the blocks per run. Single blocks are
+  // about a thread wide on the fixtures (32 blocks of 7.5 rows, a thread
+  // 8 px), and a plain weave's neighbouring threads are half a period apart
+  // (DESIGN.md §3): their profiles alternate, and every photograph holds
+  // them in equal shares, but a resample of single blocks does not. Over 16
+  // noise draws of ten sawtooth fixtures the spacings spread 0.08-0.93
+  // (median 0.60) times the single-block bootstrap's error, 0.08-1.36
+  // (median 0.77) times this one's.
+  const int run = std::max(1, profile.num_blocks / 4);
   std::mt19937 rng(options.seed);
   std::uniform_int_distribution<int> pick(0, profile.num_blocks - 1);
   // A bootstrap resample is read only near the lobe: its maxima are sought
@@ -501,7 +511,12 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   const int read_hi = std::min(n - 1, lobe_hi + read_margin);
   auto smoothed_resample = [&](double sigma) {
     std::vector<int> w(profile.num_blocks, 0);
-    for (int k = 0; k < profile.num_blocks; ++k) ++w[pick(rng)];
+    for (int k = 0; k < profile.num_blocks; k += run) {
+      const int start = pick(rng);
+      for (int j = 0; j < run && k + j < profile.num_blocks; ++j) {
+        ++w[(start + j) % profile.num_blocks];
+      }
+    }
     const int reach = static_cast<int>(std::ceil(3.0 * sigma)) + 1;
     const int from = std::max(0, read_lo - reach);
     const int to = std::min(n - 1, read_hi + reach);
