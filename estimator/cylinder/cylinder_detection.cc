@@ -127,12 +127,6 @@ std::vector<double> Finite(const std::vector<double>& values) {
   return finite;
 }
 
-// The median of the finite values, or NaN when there are none.
-double MedianOfFinite(const std::vector<double>& values) {
-  const std::vector<double> finite = Finite(values);
-  return finite.empty() ? std::numeric_limits<double>::quiet_NaN() : Median(finite);
-}
-
 // Standard error of the median of the finite values: the standard deviation
 // of the medians of 256 resamples with replacement (fixed seed, so an image
 // always gets the same answer). A bootstrap rather than 1.25·σ/√n because
@@ -201,32 +195,34 @@ void SetRadiusStderr(const Line& left, double left_systematic, const Line& right
   g->radius_systematic_px = 0.5 * std::sqrt(systematic2);
 }
 
-// The limb to a fraction of a pixel: the band's pixels from two outside the
-// first estimate e0 to five inside are fitted, for edges e within a pixel of
-// it, as background outside and, over the covered part of each pixel, a
-// body level B plus a term S/cos φ (the grazing scatter, DESIGN.md §3, whose
-// integrable 1/cos φ rise brightens the limb pixel itself and pushes a
-// half-level crossing outward). cos φ is taken from the distance d inside
-// the limb: sin φ = 1 − d/r. `inward` is +1 when the surface lies at larger
-// columns (a left limb), −1 otherwise. B and S enter linearly. At a limb that
-// is not `lit` (the one away from the light, in the cylinder's own shadow:
-// DESIGN.md §3 has no scatter there) S is held at zero: fitted, noise alone
-// makes it positive half the time (it is held at zero when negative), and
-// its rise at the limb then pulls the edge inward (0.03-0.07 px at a body
-// 0.02 above the background).
-double RefineEdge(const std::vector<double>& v, double background, double e0, int inward,
-                  double radius_px, bool glints_may_reach, bool lit,
-                  double fixed_scatter = std::numeric_limits<double>::quiet_NaN(),
-                  double* scatter_out = nullptr) {
+// The pixels RefineEdge fits for one band's limb: from two outside the first
+// estimate e0 to five inside, `inward` +1 when the surface lies at larger
+// columns. Empty when fewer than 6 (or the radius is implausible).
+struct EdgeWindow {
+  std::vector<int> xs;
+  const std::vector<double>* v = nullptr;
+  double background = 0.0;
+  int inward = 1;
+  double r = 0.0;
+};
+
+EdgeWindow MakeEdgeWindow(const std::vector<double>& v, double background, double e0,
+                          int inward, double radius_px, bool glints_may_reach) {
+  EdgeWindow w;
+  w.v = &v;
+  w.background = background;
+  w.inward = inward;
+  w.r = radius_px;
   const int n = static_cast<int>(v.size());
   const int x_first = static_cast<int>(std::floor(e0 - inward * 2.0 + 0.5));
-  std::vector<int> xs;
   for (int k = 0; k <= 8; ++k) {
     const int x = x_first + inward * k;
-    if (x >= 0 && x < n) xs.push_back(x);
+    if (x >= 0 && x < n) w.xs.push_back(x);
   }
-  if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
-  if (xs.size() < 6 || !(radius_px > 4.0)) return e0;
+  if (w.xs.size() < 6 || !(radius_px > 4.0)) {
+    w.xs.clear();
+    return w;
+  }
   // Inside the limb toward the light the body and the grazing scatter only
   // fall or hold inward (1/cos φ is largest at the limb). A rise inward is
   // the specular lobe's glints, which reach that limb at large phase angles
@@ -237,18 +233,29 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   // keeps as before.)
   if (glints_may_reach) {
     double low = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < xs.size(); ++i) {
-      const double inside = inward > 0 ? xs[i] - 0.5 - e0 : e0 - xs[i] - 0.5;
+    for (std::size_t i = 0; i < w.xs.size(); ++i) {
+      const double inside = inward > 0 ? w.xs[i] - 0.5 - e0 : e0 - w.xs[i] - 0.5;
       if (inside < 1.0) continue;
-      const double level = v[xs[i]];
+      const double level = v[w.xs[i]];
       if (i >= 4 && level > low + kEdgeRise * std::max(low - background, 0.0)) {
-        xs.resize(i);
+        w.xs.resize(i);
         break;
       }
       low = std::min(low, level);
     }
   }
-  const double r = radius_px;
+  return w;
+}
+
+// The least-squares sums of RefineEdge's model at edge e over a window: each
+// pixel's covered share c and capped grazing integral i against its level
+// less the background's uncovered share, y = v − bg·(1 − c).
+struct EdgeSums {
+  double cc = 0, ci = 0, ii = 0, cy = 0, iy = 0, yy = 0;
+};
+
+EdgeSums SumsAt(const EdgeWindow& w, double e) {
+  const double r = w.r;
   auto arc = [r](double d) { return std::asin(std::clamp(1.0 - d / r, -1.0, 1.0)); };
   // ∫ dd / max(cos φ, kMinCosAzimuth) over [lo, hi] inside the limb: the
   // optical models cap the grazing 1/cos φ there (optics/radiance.h).
@@ -262,57 +269,86 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
     if (hi > lo) sum += r * (arc(lo) - arc(hi));
     return sum;
   };
+  EdgeSums t;
+  for (int x : w.xs) {
+    const double d_lo = w.inward > 0 ? x - 0.5 - e : e - x - 0.5;
+    const double lo = std::max(0.0, d_lo);
+    const double hi = std::max(lo, d_lo + 1.0);
+    const double c = hi - lo;
+    const double i = capped_integral(lo, hi);
+    const double y = (*w.v)[x] - w.background * (1.0 - c);
+    t.cc += c * c;
+    t.ci += c * i;
+    t.ii += i * i;
+    t.cy += c * y;
+    t.iy += i * y;
+    t.yy += y * y;
+  }
+  return t;
+}
+
+// With B profiled out (B = (cy − S·ci)/cc), the residual sum of squares at a
+// held S is SSE(S) = at_zero − 2·S·num + S²·den.
+struct HeldFit {
+  double at_zero = 0, num = 0, den = 0;
+};
+
+HeldFit Held(const EdgeSums& t) {
+  HeldFit h;
+  if (!(t.cc > 0)) return h;
+  h.at_zero = t.yy - t.cy * t.cy / t.cc;
+  h.num = t.iy - t.ci * t.cy / t.cc;
+  h.den = t.ii - t.ci * t.ci / t.cc;
+  return h;
+}
+
+// The limb to a fraction of a pixel: the band's pixels from two outside the
+// first estimate e0 to five inside (MakeEdgeWindow) are fitted, for edges e
+// within a pixel of it, as background outside and, over the covered part of
+// each pixel, a body level B plus a term S/cos φ (the grazing scatter,
+// DESIGN.md §3, whose integrable 1/cos φ rise brightens the limb pixel
+// itself and pushes a half-level crossing outward). cos φ is taken from the
+// distance d inside the limb: sin φ = 1 − d/r. `inward` is +1 when the
+// surface lies at larger columns (a left limb), −1 otherwise. B and S enter
+// linearly. At a limb that is not `lit` (the one away from the light, in the
+// cylinder's own shadow: DESIGN.md §3 has no scatter there) S is held at
+// zero: fitted, noise alone makes it positive half the time (it is held at
+// zero when negative), and its rise at the limb then pulls the edge inward
+// (0.03-0.07 px at a body 0.02 above the background).
+double RefineEdge(const std::vector<double>& v, double background, double e0, int inward,
+                  double radius_px, bool glints_may_reach, bool lit,
+                  double fixed_scatter = std::numeric_limits<double>::quiet_NaN(),
+                  double* scatter_out = nullptr) {
+  if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
+  const EdgeWindow w = MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach);
+  if (w.xs.empty()) return e0;
   double best_e = e0;
   double best_scatter = 0.0;
   double best_sse = std::numeric_limits<double>::infinity();
-  // Edges within a pixel of e0: every 0.05 px, then every 0.005 px around
-  // the best.
-  std::vector<double> cov(xs.size()), integral(xs.size()), y(xs.size());
   auto consider = [&](double e) {
-    // Normal equations for (B, S) on y = v − bg·(1 − cov) = B·cov + S·I.
-    double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
-    for (std::size_t i = 0; i < xs.size(); ++i) {
-      const int x = xs[i];
-      const double d_lo = inward > 0 ? x - 0.5 - e : e - x - 0.5;
-      const double lo = std::max(0.0, d_lo);
-      const double hi = std::max(lo, d_lo + 1.0);
-      cov[i] = hi - lo;
-      integral[i] = capped_integral(lo, hi);
-      y[i] = v[x] - background * (1.0 - cov[i]);
-      a11 += cov[i] * cov[i];
-      a12 += cov[i] * integral[i];
-      a22 += integral[i] * integral[i];
-      b1 += cov[i] * y[i];
-      b2 += integral[i] * y[i];
-    }
-    const double det = a11 * a22 - a12 * a12;
-    if (!(std::fabs(det) > 1e-12 * std::max(1.0, a11 * a22))) return;
-    double body = (b1 * a22 - b2 * a12) / det;
-    double scatter = (a11 * b2 - a12 * b1) / det;
+    const EdgeSums t = SumsAt(w, e);
+    const double det = t.cc * t.ii - t.ci * t.ci;
+    if (!(std::fabs(det) > 1e-12 * std::max(1.0, t.cc * t.ii))) return;
+    double scatter = (t.cc * t.iy - t.ci * t.cy) / det;
     // S held: zero at an unlit limb or when it comes out negative (scatter
     // only brightens: a plain step then), or given.
-    bool held = true;
     if (!lit) {
       scatter = 0.0;
     } else if (std::isfinite(fixed_scatter)) {
       scatter = fixed_scatter;
     } else if (scatter < 0.0) {
       scatter = 0.0;
-    } else {
-      held = false;
     }
-    if (held) body = (b1 - scatter * a12) / a11;
-    double sse = 0.0;
-    for (std::size_t i = 0; i < xs.size(); ++i) {
-      const double res = y[i] - body * cov[i] - scatter * integral[i];
-      sse += res * res;
-    }
+    const HeldFit h = Held(t);
+    const double sse = h.at_zero - 2.0 * scatter * h.num + scatter * scatter * h.den;
     if (sse < best_sse) {
       best_sse = sse;
       best_e = e;
       best_scatter = scatter;
     }
   };
+  // Edges within a pixel of e0: every 0.05 px, then every 0.005 px around
+  // the best.
   for (int step = -20; step <= 20; ++step) consider(e0 + 0.05 * step);
   const double coarse = best_e;
   for (int step = -10; step <= 10; ++step) consider(coarse + 0.005 * step);
@@ -534,12 +570,9 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   }
   // Each limb to a fraction of a pixel (RefineEdge), twice: the grazing
   // scatter's strength S is the same along a limb, so the second pass holds
-  // it at the median of the first pass's per-band fits. Fitted band by band,
-  // S is noisy and held at zero when negative, so noise alone biases it
-  // upward, and its rise at the limb pulls the edge inward (0.05 px on
-  // 320×240 renders). refine_limb places one limb (inward +1: left) in
-  // every band, with S held at `scatter` (NaN: fitted per band, each band's
-  // fit appended to `fitted`).
+  // it at one value for all bands. refine_limb places one limb (inward +1:
+  // left) in every band, with S held at `scatter` (NaN: fitted per band,
+  // each band's fit appended to `fitted`).
   auto refine_limb = [&](int inward, double scatter, std::vector<double>* fitted) {
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
     std::vector<LimbPoint> points;
@@ -554,6 +587,56 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     }
     return points;
   };
+  // The held S, from all the limb's bands at once: their edges on the first
+  // pass's line moved together by δ (every 0.05 px within a pixel, then every
+  // 0.005 px), each band its own body level, one S ≥ 0 for all, by least
+  // squares (S enters linearly: closed form at each δ). Fitted band by band
+  // (edge, body and S each), S comes out biased upward by noise, in
+  // proportion to it: at the coarse gauze's lit limb at 60° the median of
+  // the bands' fits read 0.00014-0.00025 where the noise-free value is
+  // 0.00013, pulling that limb 0.02 px inward; with the joint S the radius
+  // is short by 0.006 px instead of 0.012 (48 noise draws; 0.014 instead of
+  // 0.022 at 10°, 0.007 instead of 0.012 at -110°).
+  auto joint_scatter = [&](int inward, const std::vector<LimbPoint>& first) {
+    const bool toward_light = inward > 0 ? light < 0 : light > 0;
+    const Line line = FitLimbLine(first, center_row);
+    std::vector<EdgeWindow> windows;
+    std::vector<double> edges;  // the first line at each band, region columns
+    for (std::size_t i = 0; i < bands_seen.size(); ++i) {
+      if (!line.inlier[i]) continue;
+      const BandEdges& band = bands_seen[i];
+      EdgeWindow w = MakeEdgeWindow(band.profile, background,
+                                    inward > 0 ? band.left_cross : band.right_cross, inward,
+                                    band.radius, glints_reach_limb && toward_light);
+      if (w.xs.empty()) continue;
+      windows.push_back(std::move(w));
+      edges.push_back(line.at_center + line.slope * (band.row - center_row) - region.x);
+    }
+    double best_sse = std::numeric_limits<double>::infinity();
+    double best_delta = 0.0;
+    double best_s = std::numeric_limits<double>::quiet_NaN();
+    auto consider = [&](double delta) {
+      HeldFit sum;
+      for (std::size_t k = 0; k < windows.size(); ++k) {
+        const HeldFit h = Held(SumsAt(windows[k], edges[k] + delta));
+        sum.at_zero += h.at_zero;
+        sum.num += h.num;
+        sum.den += h.den;
+      }
+      if (!(sum.den > 0.0)) return;
+      const double s = std::max(0.0, sum.num / sum.den);
+      const double sse = sum.at_zero - 2.0 * s * sum.num + s * s * sum.den;
+      if (sse < best_sse) {
+        best_sse = sse;
+        best_delta = delta;
+        best_s = s;
+      }
+    };
+    for (int k = -20; k <= 20; ++k) consider(0.05 * k);
+    const double coarse = best_delta;
+    for (int k = -10; k <= 10; ++k) consider(coarse + 0.005 * k);
+    return best_s;
+  };
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN(), &left_scatter);
   right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN(), &right_scatter);
   // The held S is one number for the whole limb, so its own noise moves every
@@ -561,8 +644,9 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   // over 64 noise draws of the coarse gauze at 10° the limbs spread 1.3 times
   // their line's stated scatter (1.8 times with dark axial threads), and
   // 1.1 times with the first pass's edges. held_shift is that common shift's
-  // standard error: the median's (MedianStderrOfFinite) times the line's
-  // move per unit S, from two more passes at S ± that error.
+  // standard error: S's (taken as the bootstrap error of the median of the
+  // bands' own fits, MedianStderrOfFinite) times the line's move per unit S,
+  // from two more passes at S ± that error.
   auto held_shift = [&](int inward, const std::vector<double>& fitted, double s) {
     const double ds = MedianStderrOfFinite(fitted);
     if (!(ds > 0.0)) return 0.0;
@@ -574,14 +658,14 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   double right_held_px = 0.0;
   // A limb in shadow has S held at zero in both passes: its first is final.
   if (!shadowed_limb || light < 0) {
-    const double s = MedianOfFinite(left_scatter);
+    const double s = joint_scatter(+1, left_points);
     if (std::isfinite(s)) {
       left_points = refine_limb(+1, s, nullptr);
       left_held_px = held_shift(+1, left_scatter, s);
     }
   }
   if (!shadowed_limb || light > 0) {
-    const double s = MedianOfFinite(right_scatter);
+    const double s = joint_scatter(-1, right_points);
     if (std::isfinite(s)) {
       right_points = refine_limb(-1, s, nullptr);
       right_held_px = held_shift(-1, right_scatter, s);
