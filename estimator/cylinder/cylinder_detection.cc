@@ -199,20 +199,19 @@ void SetRadiusStderr(const Line& left, double left_systematic, const Line& right
 // The pixels RefineEdge fits for one band's limb: from two outside the first
 // estimate e0 to five inside, `inward` +1 when the surface lies at larger
 // columns. Empty when fewer than 6 (or the radius is implausible).
+struct Blur;
+
 struct EdgeWindow {
   std::vector<int> xs;
   const std::vector<double>* v = nullptr;
   double background = 0.0;
   int inward = 1;
   double r = 0.0;
-  // A lens blur (Gaussian σ, px) the model is seen through; 0: none. Then
+  // The lens blur the model is seen through (SetBlur); none when null. Then
   // the surface inside the limb is cut into cells of kCellPx, each with its
-  // grazing integral, and kernel[k] is a pixel's share of a point at
-  // kKernelStepPx·k − kernel_reach from its centre (SetBlur).
-  double sigma = 0.0;
+  // grazing integral.
+  const Blur* blur = nullptr;
   std::vector<double> cell_integral;
-  std::vector<double> kernel;
-  double kernel_reach = 0.0;
 };
 
 constexpr double kCellPx = 0.25;
@@ -314,12 +313,11 @@ Blur MakeBlur(double sigma) {
   return b;
 }
 
-// Sets the window's lens blur (see EdgeWindow): its cells, once, and the
-// kernel, which depends on σ alone and so is passed in.
-void SetBlur(EdgeWindow* w, double sigma, const std::vector<double>& kernel, double reach) {
-  w->sigma = sigma;
-  if (!(sigma >= kMinBlurPx) || w->xs.empty()) {
-    w->kernel.clear();
+// Has the window seen through `blur` (kept by address: it must outlive the
+// window's use), cutting its cells the first time.
+void SetBlur(EdgeWindow* w, const Blur& blur) {
+  if (blur.kernel.empty() || w->xs.empty()) {
+    w->blur = nullptr;
     return;
   }
   if (w->cell_integral.empty()) {
@@ -330,58 +328,46 @@ void SetBlur(EdgeWindow* w, double sigma, const std::vector<double>& kernel, dou
       w->cell_integral.push_back(CappedGrazingIntegral(w->r, k * kCellPx, (k + 1) * kCellPx));
     }
   }
-  w->kernel = kernel;
-  w->kernel_reach = reach;
+  w->blur = &blur;
 }
 
-// A pixel's share of a point at offset t from its centre (SetBlur's kernel).
-double KernelAt(const EdgeWindow& w, double t) {
-  const double at = (t + w.kernel_reach) / kKernelStepPx;
-  if (!(at >= 0.0) || at >= static_cast<double>(w.kernel.size() - 1)) return 0.0;
+// A pixel's share of a point at offset t from its centre (the blur's kernel).
+double KernelAt(const Blur& blur, double t) {
+  const double at = (t + blur.reach) / kKernelStepPx;
+  if (!(at >= 0.0) || at >= static_cast<double>(blur.kernel.size() - 1)) return 0.0;
   const int k = static_cast<int>(at);
   const double f = at - k;
-  return (1.0 - f) * w.kernel[k] + f * w.kernel[k + 1];
+  return (1.0 - f) * blur.kernel[k] + f * blur.kernel[k + 1];
 }
 
 EdgeSums SumsAt(const EdgeWindow& w, double e) {
-  const double r = w.r;
-  auto capped_integral = [r](double lo, double hi) { return CappedGrazingIntegral(r, lo, hi); };
   EdgeSums t;
-  if (!w.kernel.empty()) {
-    // Through the lens blur: each cell's coverage and grazing integral
-    // spread over the pixels by the kernel; the background fills the rest.
-    for (int x : w.xs) {
-      double c = 0.0;
-      double i = 0.0;
-      // The cells within the kernel's reach of the pixel's centre.
-      const double near = w.inward * (x - e) - w.kernel_reach;
-      const double far = w.inward * (x - e) + w.kernel_reach;
+  for (int x : w.xs) {
+    double c = 0.0;  // covered share
+    double i = 0.0;  // grazing integral
+    if (w.blur != nullptr) {
+      // Through the lens blur: each cell's coverage and grazing integral
+      // spread over the pixels by the kernel, over the cells within its
+      // reach of the pixel's centre; the background fills the rest.
+      const double reach = w.blur->reach;
+      const double near = w.inward * (x - e) - reach;
+      const double far = w.inward * (x - e) + reach;
       const int k_lo = std::max(0, static_cast<int>(std::floor(near / kCellPx - 0.5)));
       const int k_hi = std::min(static_cast<int>(w.cell_integral.size()) - 1,
                                 static_cast<int>(std::ceil(far / kCellPx - 0.5)));
       for (int k = k_lo; k <= k_hi; ++k) {
         const double u = e + w.inward * (k + 0.5) * kCellPx;  // the cell's centre
-        const double share = KernelAt(w, u - x);
-        if (share == 0.0) continue;
+        const double share = KernelAt(*w.blur, u - x);
         c += share * kCellPx;
         i += share * w.cell_integral[k];
       }
-      const double y = (*w.v)[x] - w.background * (1.0 - c);
-      t.cc += c * c;
-      t.ci += c * i;
-      t.ii += i * i;
-      t.cy += c * y;
-      t.iy += i * y;
-      t.yy += y * y;
+    } else {
+      const double d_lo = w.inward > 0 ? x - 0.5 - e : e - x - 0.5;
+      const double lo = std::max(0.0, d_lo);
+      const double hi = std::max(lo, d_lo + 1.0);
+      c = hi - lo;
+      i = CappedGrazingIntegral(w.r, lo, hi);
     }
-    return t;
-  }
-  for (int x : w.xs) {
-    const double d_lo = w.inward > 0 ? x - 0.5 - e : e - x - 0.5;
-    const double lo = std::max(0.0, d_lo);
-    const double hi = std::max(lo, d_lo + 1.0);
-    const double c = hi - lo;
-    const double i = capped_integral(lo, hi);
     const double y = (*w.v)[x] - w.background * (1.0 - c);
     t.cc += c * c;
     t.ci += c * i;
@@ -429,7 +415,7 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
   EdgeWindow w = MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach);
   if (w.xs.empty()) return e0;
-  SetBlur(&w, blur.sigma, blur.kernel, blur.reach);
+  SetBlur(&w, blur);
   double best_e = e0;
   double best_scatter = 0.0;
   double best_sse = std::numeric_limits<double>::infinity();
@@ -726,7 +712,6 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     double scatter = std::numeric_limits<double>::quiet_NaN();
     Blur blur;
     Line line;  // the first pass's line moved by the fitted δ
-    bool recentre = true;  // whether the bands search around `line`
   };
   auto joint_limb = [&](int inward, const std::vector<LimbPoint>& first,
                         const Blur* fixed_blur = nullptr) {
@@ -758,7 +743,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     auto scan = [&](const Blur& blur, bool fine) {
       const std::size_t band_step = fine ? 1 : 3;
       for (std::size_t k = 0; k < windows.size(); k += band_step) {
-        SetBlur(&windows[k], blur.sigma, blur.kernel, blur.reach);
+        SetBlur(&windows[k], blur);
       }
       Scan best;
       auto consider = [&](double delta) {
@@ -794,48 +779,39 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     };
     LimbFit fit;
     if (windows.empty()) return fit;
-    fit.recentre = extend;
     if (fixed_blur != nullptr) {
       fit.blur = *fixed_blur;
-      const Scan final_scan = scan(fit.blur, true);
-      fit.scatter = final_scan.scatter;
-      fit.line = line;
-      fit.line.at_center += final_scan.delta;
-      return fit;
-    }
-    // Glints that cut a window short would pass for blur: no proposal then.
-    const std::vector<double> grid =
-        extend ? std::vector<double>{0.0, 0.35, 0.7, 1.0, kMaxBlurPx} : std::vector<double>{0.0};
-    std::size_t best_k = 0;
-    double best_sse = std::numeric_limits<double>::infinity();
-    for (std::size_t k = 0; k < grid.size(); ++k) {
-      const double sse = scan(MakeBlur(grid[k]), false).sse;
-      if (sse < best_sse) {
-        best_sse = sse;
-        best_k = k;
+    } else {
+      // Glints that cut a window short would pass for blur: no proposal then.
+      const std::vector<double> grid =
+          extend ? std::vector<double>{0.0, 0.35, 0.7, 1.0, kMaxBlurPx} : std::vector<double>{0.0};
+      std::size_t best_k = 0;
+      double best_sse = std::numeric_limits<double>::infinity();
+      for (std::size_t k = 0; k < grid.size(); ++k) {
+        const double sse = scan(MakeBlur(grid[k]), false).sse;
+        if (sse < best_sse) {
+          best_sse = sse;
+          best_k = k;
+        }
       }
+      double sigma = grid[best_k];
+      if (best_k > 0) {
+        const double lo = grid[best_k - 1];
+        const double hi = grid[std::min(best_k + 1, grid.size() - 1)];
+        sigma = GoldenSectionMinimum([&](double sg) { return scan(MakeBlur(sg), false).sse; },
+                                     lo, hi, 0.05);
+      }
+      fit.blur = MakeBlur(sigma < kMinBlurPx ? 0.0 : sigma);
     }
-    double sigma = grid[best_k];
-    if (best_k > 0) {
-      const double lo = grid[best_k - 1];
-      const double hi = grid[std::min(best_k + 1, grid.size() - 1)];
-      sigma = GoldenSectionMinimum([&](double sg) { return scan(MakeBlur(sg), false).sse; },
-                                   lo, hi, 0.05);
-    }
-    fit.blur = MakeBlur(sigma < kMinBlurPx ? 0.0 : sigma);
     const Scan final_scan = scan(fit.blur, true);
     fit.scatter = final_scan.scatter;
     fit.line = line;
     fit.line.at_center += final_scan.delta;
-    return fit;
-  };
-  // The joint fit, and where glints cut a window short, the bands' own first
-  // estimates to search around rather than its line (which they draw in:
-  // 0.5 px at α = 140°, R = 256 px, the glints 1.4 px inside the limb).
-  auto joint_limb_fit = [&](int inward, const std::vector<LimbPoint>& first,
-                            const Blur* fixed_blur = nullptr) {
-    LimbFit fit = joint_limb(inward, first, fixed_blur);
-    if (!fit.recentre) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
+    // Where glints cut a window short, the bands search around their own
+    // first estimates rather than this line, which the glints draw in (0.5 px
+    // at α = 140°, R = 256 px, the glints 1.4 px inside the limb): no band is
+    // marked as on it.
+    if (!extend) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
     return fit;
   };
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN(), &left_scatter);
@@ -867,8 +843,8 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   // out too far out (above); a limb in shadow too, as a plain step whose
   // blurred light inside the window's end pulls the fitted body level down:
   // 0.26 and 0.37 px at a lens blur of 0.8 and 1.2 px.
-  const LimbFit left_try = joint_limb_fit(+1, left_points);
-  const LimbFit right_try = joint_limb_fit(-1, right_points);
+  const LimbFit left_try = joint_limb(+1, left_points);
+  const LimbFit right_try = joint_limb(-1, right_points);
   const double sigma =
       std::isfinite(left_try.scatter) && std::isfinite(right_try.scatter)
           ? std::min(left_try.blur.sigma, right_try.blur.sigma)
@@ -876,7 +852,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   const Blur lens = MakeBlur(sigma);
   for (int inward : {+1, -1}) {
     std::vector<LimbPoint>& points = inward > 0 ? left_points : right_points;
-    const LimbFit fit = joint_limb_fit(inward, points, &lens);
+    const LimbFit fit = joint_limb(inward, points, &lens);
     if (!std::isfinite(fit.scatter)) continue;
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
     if (shadowed_limb && !toward_light) {
