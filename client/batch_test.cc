@@ -17,15 +17,12 @@
 #include <thread>
 
 #include "client/report.h"
+#include "tests/temp_dir.h"
 
 namespace weavefit {
 namespace {
 
-std::string MakeTempDir() {
-  std::string pattern = ::testing::TempDir() + "batch_test_XXXXXX";
-  EXPECT_NE(mkdtemp(pattern.data()), nullptr);
-  return pattern;
-}
+std::string MakeTempDir() { return testing::MakeTempDir("batch_test_"); }
 
 void Touch(const std::string& path, const std::string& text = "x") {
   std::ofstream(path, std::ios::binary) << text;

@@ -13,6 +13,7 @@
 
 #include "estimator/pipeline/estimate.h"
 #include "proto/weavefit/v1/convert.h"
+#include "tests/temp_dir.h"
 
 namespace weavefit {
 namespace {
@@ -56,7 +57,7 @@ TEST(FitPlotTest, WritesChartAndThumbnailSideBySide) {
   const std::string image = std::string(FIXTURES_DIR) + "/gauze_sinusoid_p10.png";
   const std::string bytes = Read(image);
   const v1::EstimateReply reply = ReplyFor(bytes, 10.0, true);
-  const std::string out = ::testing::TempDir() + "/fit_plot_test.png";
+  const std::string out = testing::MakeTempDir() + "/fit_plot_test.png";
   const absl::Status written = WriteFitPlot(reply, bytes, "gauze_sinusoid_p10.png", out);
   ASSERT_TRUE(written.ok()) << written;
   const cv::Mat plot = cv::imread(out, cv::IMREAD_COLOR);

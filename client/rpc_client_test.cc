@@ -8,6 +8,8 @@
 #include <fstream>
 #include <map>
 
+#include "tests/temp_dir.h"
+
 namespace weavefit {
 namespace {
 
@@ -109,7 +111,7 @@ TEST(ChannelTargetTest, TheSystemResolverKnowsLocalhost) {
 }
 
 TEST(ConnectionTest, TokenFromTheFileElseTheEnvironment) {
-  const std::string path = ::testing::TempDir() + "/rpc_client_test_token";
+  const std::string path = testing::MakeTempDir() + "/rpc_client_test_token";
   std::ofstream(path) << "  s3cret \nsecond line\n";
   Connection c;
   ASSERT_TRUE(c.LoadToken(path).ok());

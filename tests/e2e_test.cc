@@ -207,7 +207,7 @@ TEST_F(EndToEnd, JointEstimateOverFourPhaseAngles) {
 // The daemon's EstimateJoint: a photograph it cannot estimate fails the
 // whole call with a message that names it, and the daemon keeps serving.
 TEST_F(EndToEnd, JointCallNamesTheFailingPhotograph) {
-  const std::string bad = ::testing::TempDir() + "/not_an_image.png";
+  const std::string bad = MakeTempDir() + "/not_an_image.png";
   WriteFileOrDie(bad, "this is not a PNG file");
   const std::string good = kFixtures + "/gauze_sinusoid_p10.png";
   const CommandResult run = Submit({good, bad, "--joint", "--phase-angle", "10"});
@@ -221,7 +221,7 @@ TEST_F(EndToEnd, JointCallNamesTheFailingPhotograph) {
 // per-mode summary and, with gnuplot present (scripts/setup.sh installs
 // it), the chart. Timings are not checked: they belong to benchmarks.
 TEST_F(EndToEnd, BenchWritesCsvAndChart) {
-  const std::string out = ::testing::TempDir() + "/bench";
+  const std::string out = MakeTempDir() + "/bench";
   const CommandResult run = RunCommand({WEAVEFIT_PATH, "bench", kFixtures + "/gauze_sinusoid_p10.png",
                                         kFixtures + "/saw_m030_m10.png", "--out", out,
                                         "--repeats", "1", "--modes", "fast,balanced"});
@@ -240,7 +240,7 @@ TEST_F(EndToEnd, BenchWritesCsvAndChart) {
 
 // weavefit bench --sweep: one noise draw, fast mode only, to keep it short.
 TEST_F(EndToEnd, SweepWritesCsvAndCharts) {
-  const std::string out = ::testing::TempDir() + "/sweep";
+  const std::string out = MakeTempDir() + "/sweep";
   const CommandResult run = RunCommand(
       {WEAVEFIT_PATH, "bench", "--sweep", "--out", out, "--seeds", "1", "--modes", "fast"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -273,7 +273,7 @@ struct BadInput {
 };
 
 TEST_F(EndToEnd, BadInputGetsAClearErrorAndTheDaemonKeepsServing) {
-  const std::string dir = ::testing::TempDir();
+  const std::string dir = MakeTempDir() + "/";
   const std::string good = FixtureImages(kFixtures).front();
   const std::string png = ReadFileOrDie(kFixtures + "/gauze_sawtooth_p10.png");
   std::mt19937 rng(7);

@@ -23,13 +23,6 @@ extern char** environ;
 
 namespace weavefit::testing {
 
-std::string MakeTempDir() {
-  std::string pattern = ::testing::TempDir() + "weavefit_XXXXXX";
-  char* made = mkdtemp(pattern.data());
-  if (made == nullptr) ADD_FAILURE() << "mkdtemp failed";
-  return pattern;
-}
-
 // Sends `request` to 127.0.0.1:port; the whole response, headers included.
 std::string RawHttp(int port, const std::string& request) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/temp_dir.h"
+
 namespace weavefit::testing {
 
 struct CommandResult {
@@ -26,9 +28,6 @@ CommandResult RunCommand(const std::vector<std::string>& argv);
 std::string RawHttp(int port, const std::string& request);
 // GET `path` over HTTP/1.0.
 std::string HttpGet(int port, const std::string& path);
-
-// A fresh folder under the test temporary directory.
-std::string MakeTempDir();
 
 std::string ReadFileOrDie(const std::string& path);
 void WriteFileOrDie(const std::string& path, const std::string& bytes);
