@@ -207,6 +207,9 @@ struct EdgeWindow {
   double background = 0.0;
   int inward = 1;
   double r = 0.0;
+  // Depth inside the limb (px) where the light reaches: the terminator, at
+  // the limb away from the light; no grazing scatter above it.
+  double lit_from = 0.0;
   // The lens blur the model is seen through (SetBlur); none when null. Then
   // the surface inside the limb is cut into cells of kCellPx, each with its
   // grazing integral.
@@ -223,8 +226,10 @@ constexpr double kMinBlurPx = 0.2;
 constexpr double kMaxBlurPx = 1.5;
 
 EdgeWindow MakeEdgeWindow(const std::vector<double>& v, double background, double e0,
-                          int inward, double radius_px, bool glints_may_reach) {
+                          int inward, double radius_px, bool glints_may_reach,
+                          double lit_from = 0.0) {
   EdgeWindow w;
+  w.lit_from = lit_from;
   w.v = &v;
   w.background = background;
   w.inward = inward;
@@ -325,7 +330,9 @@ void SetBlur(EdgeWindow* w, const Blur& blur) {
     // e within a pixel and a half of e0) by the widest kernel's reach.
     const int cells = static_cast<int>(std::ceil((11.0 + 0.5 + 3.0 * kMaxBlurPx) / kCellPx));
     for (int k = 0; k < cells; ++k) {
-      w->cell_integral.push_back(CappedGrazingIntegral(w->r, k * kCellPx, (k + 1) * kCellPx));
+      const double lo = std::max(k * kCellPx, w->lit_from);
+      const double hi = (k + 1) * kCellPx;
+      w->cell_integral.push_back(hi > lo ? CappedGrazingIntegral(w->r, lo, hi) : 0.0);
     }
   }
   w->blur = &blur;
@@ -366,7 +373,7 @@ EdgeSums SumsAt(const EdgeWindow& w, double e) {
       const double lo = std::max(0.0, d_lo);
       const double hi = std::max(lo, d_lo + 1.0);
       c = hi - lo;
-      i = CappedGrazingIntegral(w.r, lo, hi);
+      i = hi > w.lit_from ? CappedGrazingIntegral(w.r, std::max(lo, w.lit_from), hi) : 0.0;
     }
     const double y = (*w.v)[x] - w.background * (1.0 - c);
     t.cc += c * c;
@@ -411,9 +418,11 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
                   double radius_px, bool glints_may_reach, bool lit,
                   double fixed_scatter = std::numeric_limits<double>::quiet_NaN(),
                   double* scatter_out = nullptr, const Blur& blur = Blur(),
-                  double center = std::numeric_limits<double>::quiet_NaN()) {
+                  double center = std::numeric_limits<double>::quiet_NaN(),
+                  double lit_from = 0.0) {
   if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
-  EdgeWindow w = MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach);
+  EdgeWindow w =
+      MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach, lit_from);
   if (w.xs.empty()) return e0;
   SetBlur(&w, blur);
   double best_e = e0;
@@ -668,6 +677,15 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   // it at one value for all bands. refine_limb places one limb (inward +1:
   // left) in every band, with S held at `scatter` (NaN: fitted per band,
   // each band's fit appended to `fitted`).
+  // Below kShadowedLimbRad the limb away from the light is lit only from the
+  // terminator on, R·(1 − cos α) inside it (2 px at R = 128 px and 10°): its
+  // grazing scatter starts there. Modelled from the limb, the scatter's rise
+  // at the terminator drew that limb inward (the coarse gauze at 10°,
+  // noise-free: radius 0.015 px short).
+  auto lit_from = [&](bool toward_light, double radius) {
+    if (light == 0 || toward_light || shadowed_limb) return 0.0;
+    return radius * (1.0 - std::cos(options.phase_angle_rad));
+  };
   auto refine_limb = [&](int inward, double scatter, std::vector<double>* fitted,
                          const Blur& blur = Blur(), const Line* around = nullptr) {
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
@@ -686,7 +704,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
           {band.row, region.x + RefineEdge(band.profile, background, e0, inward, band.radius,
                                            glints_reach_limb && toward_light,
                                            !shadowed_limb || toward_light, scatter, &s, blur,
-                                           center)});
+                                           center, lit_from(toward_light, band.radius))});
       if (fitted != nullptr) fitted->push_back(s);
     }
     return points;
@@ -725,7 +743,8 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       const BandEdges& band = bands_seen[i];
       EdgeWindow w = MakeEdgeWindow(band.profile, background,
                                     inward > 0 ? band.left_cross : band.right_cross, inward,
-                                    band.radius, glints_reach_limb && toward_light);
+                                    band.radius, glints_reach_limb && toward_light,
+                                    lit_from(toward_light, band.radius));
       if (w.xs.empty()) continue;
       windows.push_back(std::move(w));
       edges.push_back(line.at_center + line.slope * (band.row - center_row) - region.x);
