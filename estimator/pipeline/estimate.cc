@@ -251,11 +251,10 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
                   const Acquisition& acquisition, double mirror_start_rad, Estimate* estimate) {
   // A fit that leaves residuals larger than the start's noise scale (a
   // reduced chi-square above 1: e.g. a tilted axis whose threads the rows
-  // cross) misses something: the model floors grow by its root. The
-  // statistical errors do not: the delete-one-thread jackknife measures the
-  // scatter the data show, misfit included, and scaling it again counted the
-  // misfit twice (wavelength spread over noise draws at 0.5-0.6 of its
-  // statistical share on four fixtures).
+  // cross) misses something the errors must own: they grow by its root.
+  // (The jackknife sees misfit that varies from thread to thread, not the
+  // tilt's, which every thread shares: unscaled, one draw in three of the
+  // bench sweep's 1° tilt fell outside 3 stated errors.)
   const double misfit = std::sqrt(std::max(1.0, comb.reduced_chi2));
   {
     // The mirror azimuth: φ = (α + v(φ))/2 + δ, by fixed point.
@@ -266,7 +265,7 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
             comb.mirror_offset_rad;
     }
     const double se =
-        std::hypot(comb.mirror_offset_stderr_rad, misfit * options.mirror_floor_rad);
+        misfit * std::hypot(comb.mirror_offset_stderr_rad, options.mirror_floor_rad);
     const double floor = misfit * options.mirror_floor_rad;
     estimate->specular_azimuth_rad = {phi, se, true, 0.0, floor, floor};
     // The phase-angle check from the glints (peak picking's is made only
@@ -289,11 +288,12 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
   const double scale_sys = estimate->cylinder.RelativeRadiusSystematic();
   const double m = comb.max_slope;
   const double m_se =
-      std::hypot(comb.max_slope_stderr, misfit * options.slope_floor * m, scale * m);
+      std::hypot(misfit * std::hypot(comb.max_slope_stderr, options.slope_floor * m), scale * m);
   const double m_sys = std::hypot(misfit * options.slope_floor * m, scale_sys * m);
   const double lambda = comb.wavelength_mm;
   const double lambda_se = std::hypot(
-      comb.wavelength_stderr_mm, misfit * options.wavelength_floor * lambda, scale * lambda);
+      misfit * std::hypot(comb.wavelength_stderr_mm, options.wavelength_floor * lambda),
+      scale * lambda);
   const double lambda_sys =
       std::hypot(misfit * options.wavelength_floor * lambda, scale_sys * lambda);
   estimate->max_slope = {m, m_se, true, 0.0, m_sys, m_sys};
