@@ -211,6 +211,22 @@ TEST(DecodeTest, ExrSaturationLevelAndNonFiniteValues) {
   EXPECT_EQ(clipped.SaturatedCount(), 3);
 }
 
+// A render or a sensor that clipped leaves a plateau at the file's largest
+// value: two or more samples there are flagged; a single largest value is
+// taken as it is.
+TEST(DecodeTest, ExrClipPlateauIsFlagged) {
+  Image original = RandomImage(8, 4, 1, 0.0f, 0.9f, 7);
+  original.pixels[9] = 1.0f;
+  const Image single = Decode(Encode(original, EncodeFormat::kExr));
+  EXPECT_EQ(single.SaturatedCount(), 0);
+  original.pixels[20] = 1.0f;
+  const Image clipped = Decode(Encode(original, EncodeFormat::kExr));
+  EXPECT_TRUE(clipped.IsSaturated(1, 1));
+  EXPECT_TRUE(clipped.IsSaturated(4, 2));
+  EXPECT_EQ(clipped.SaturatedCount(), 2);
+  EXPECT_EQ(clipped.pixels[20], 1.0f);
+}
+
 TEST(DecodeTest, JpegRoundTripIsApproximate) {
   // A smooth gradient: JPEG at quality 95 keeps it within a few codes.
   Image original;
