@@ -326,12 +326,17 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
         "glints along the arc to time the thread period by");
     return;
   }
-  if (peaks.model == ProfileModel::kSawtooth) {
-    estimate->warnings.push_back(
-        "wavelength and amplitude unresolved: a sawtooth mirrors only at the "
-        "two caustic azimuths, so its glints do not repeat along the arc");
-    return;
-  }
+  // A sawtooth mirrors only at the two caustic azimuths, so its glints do
+  // not repeat along the arc. Peak picking calls a split a sawtooth from the
+  // low level between its peaks, which a steep sinusoid shares (m = 0.79:
+  // 0.04-0.06 of the peaks' height, read as a sawtooth 1.2° short, 3-4
+  // stated errors). So the glints are still timed: a period the comb fit
+  // confirms as strictly as one the glint count could not call makes it a
+  // sinusoid after all.
+  const bool sawtooth_read = peaks.model == ProfileModel::kSawtooth;
+  const std::string sawtooth_unresolved =
+      "wavelength and amplitude unresolved: a sawtooth mirrors only at the "
+      "two caustic azimuths, so its glints do not repeat along the arc";
   const Projection projection = acquisition.GetProjection();
   const double half = 0.5 * peaks.spacing_rad;
   const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;
@@ -354,7 +359,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
                    : absl::StatusOr<GlintPeriodResult>(signals.status());
   if (!period.ok()) {
     estimate->warnings.push_back(
-        absl::StrCat("wavelength and amplitude unresolved: ", period.status().message()));
+        sawtooth_read ? sawtooth_unresolved
+                      : absl::StrCat("wavelength and amplitude unresolved: ",
+                                     period.status().message()));
     return;
   }
   // The comb fit, from the period found or, when the glint count found it
@@ -371,8 +378,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
       if (!near && starts.size() < 3) starts.push_back(c);
     }
   }
-  const double needed =
-      period->resolved ? options.comb.min_explained : options.comb.min_explained_alone;
+  const double needed = period->resolved && !sawtooth_read ? options.comb.min_explained
+                                                           : options.comb.min_explained_alone;
   std::string comb_failure;
   std::optional<CombFitResult> best;
   // The signals over the comb's wider range, along the rows the period
@@ -419,6 +426,16 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   }
   if (best) {
     ApplyCombFit(*best, options.comb, acquisition, peaks.mirror_rad, estimate);
+    if (sawtooth_read) {
+      estimate->warnings.push_back(absl::StrFormat(
+          "SINUSOID, not the SAWTOOTH the level between the peaks suggested: the glints repeat "
+          "along the arc with a %.3f mm period, which a sawtooth's do not",
+          best->wavelength_mm));
+    }
+    return;
+  }
+  if (sawtooth_read) {
+    estimate->warnings.push_back(sawtooth_unresolved);
     return;
   }
   if (!period->resolved) {
