@@ -250,6 +250,17 @@ absl::StatusOr<CombFitResult> FitCombOverLobe(const Image& luminance,
   return FitGlintComb(*pixels, *rows, model, wavelength_mm, options);
 }
 
+// Marks the split and what leans on it (max slope, wavelength, amplitude)
+// unresolved, their values kept, and says why.
+void LeaveSplitUnresolved(const std::string& why, Estimate* estimate) {
+  for (Quantity* q : {&estimate->peak_spacing_rad, &estimate->max_slope,
+                      &estimate->wavelength_mm, &estimate->amplitude_mm}) {
+    q->resolved = false;
+  }
+  estimate->warnings.push_back(
+      absl::StrCat("split, max slope, wavelength and amplitude not resolved: ", why));
+}
+
 // The comb fit's max slope, spacing, wavelength and amplitude replace the
 // profile's, with its cluster-robust errors and the model floors.
 void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
@@ -736,18 +747,13 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     // the limb 2.2 px out and the spacing 3.4° short at 7.7 stated errors.
     const Projection projection = acquisition.GetProjection();
     const double half = estimate.cylinder.radius_px / std::cos(estimate.cylinder.axis_angle_rad);
-    const double inside = half * (1.0 - std::max(std::fabs(OffsetFromAzimuth(peaks->left_peak_rad, projection)),
-                                                 std::fabs(OffsetFromAzimuth(peaks->right_peak_rad, projection))));
+    const double outer = std::max(std::fabs(OffsetFromAzimuth(peaks->left_peak_rad, projection)),
+                                  std::fabs(OffsetFromAzimuth(peaks->right_peak_rad, projection)));
+    const double inside = half * (1.0 - outer);
     if (inside < kMinCausticToLimbPx) {
-      for (Quantity* q : {&estimate.peak_spacing_rad, &estimate.max_slope,
-                          &estimate.wavelength_mm, &estimate.amplitude_mm}) {
-        q->resolved = false;
-      }
-      estimate.warnings.push_back(absl::StrFormat(
-          "split, max slope, wavelength and amplitude not resolved: the outer caustic lies "
-          "%.1f px inside the limb, where the limb's edge and the peak cannot be told apart; "
-          "photograph at a smaller phase angle",
-          inside));
+      LeaveSplitUnresolved(absl::StrFormat(
+          "the outer caustic lies %.1f px inside the limb, where the limb's edge and the peak "
+          "cannot be told apart; photograph at a smaller phase angle", inside), &estimate);
     }
   }
   if (estimate.method != "comb-fit" && estimate.peak_spacing_rad.resolved &&
@@ -804,16 +810,12 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
     // cylinder came out twice its size, read the lobe 14° off and the
     // spacing 16° short at 12 stated errors. The numbers stay, unresolved.
     if (miss > 3.0 * peaks->mirror_stderr_rad + kMirrorMissUnresolvedRad) {
-      for (Quantity* q : {&estimate.peak_spacing_rad, &estimate.max_slope,
-                          &estimate.wavelength_mm, &estimate.amplitude_mm}) {
-        q->resolved = false;
-      }
-      estimate.warnings.push_back(absl::StrFormat(
-          "split, max slope, wavelength and amplitude not resolved: the lobe stands %.1f deg "
-          "from where the stated phase angle and the cylinder found put it, so the geometry "
-          "it was read with is wrong (the phase angle, or the cylinder: axis at column %.1f, "
-          "radius %.1f px)",
-          miss / kDeg, estimate.cylinder.center_x_px, estimate.cylinder.radius_px));
+      LeaveSplitUnresolved(
+          absl::StrFormat("the lobe stands %.1f deg from where the stated phase angle and the "
+                          "cylinder found put it, so the geometry it was read with is wrong (the "
+                          "phase angle, or the cylinder: axis at column %.1f, radius %.1f px)",
+                          miss / kDeg, estimate.cylinder.center_x_px, estimate.cylinder.radius_px),
+          &estimate);
     }
   }
   estimate.max_inclination_rad = MaxInclinationFromSlope(estimate.max_slope);
