@@ -25,6 +25,15 @@ Image Render(double phase_angle_deg) {
   return RenderPhotograph(scene)->image;
 }
 
+// The scene rendered and estimated with its own phase angle stated.
+absl::StatusOr<Estimate> EstimateAtItsPhaseAngle(const RenderScene& scene) {
+  absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  if (!rendered.ok()) return rendered.status();
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
+  return EstimateFromImage(rendered->image, acquisition, EstimateOptions());
+}
+
 bool HasWarning(const Estimate& e, const std::string& text) {
   for (const std::string& w : e.warnings) {
     if (w.find(text) != std::string::npos) return true;
@@ -77,10 +86,7 @@ TEST(PhaseChecksTest, ALobeFarFromHalfThePhaseAngleIsRefused) {
   scene.optics_blur_px = 0.99;
   scene.ambient = 0.01;
   scene.seed = 102;
-  Acquisition acquisition;
-  acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
-  absl::StatusOr<Estimate> e =
-      EstimateFromImage(RenderPhotograph(scene)->image, acquisition, EstimateOptions());
+  absl::StatusOr<Estimate> e = EstimateAtItsPhaseAngle(scene);
   ASSERT_FALSE(e.ok()) << ProfileModelName(e->model) << " " << e->peak_spacing_rad.value / kDeg;
   EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(std::string(e.status().message()).find("phase angle"), std::string::npos)
@@ -101,10 +107,7 @@ TEST(PhaseChecksTest, ALobeSeveralDegreesOffLeavesTheSplitUnresolved) {
   scene.radius_px = 128.0;
   scene.phase_angle_deg = -90.0;
   scene.seed = 133;
-  Acquisition acquisition;
-  acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
-  absl::StatusOr<Estimate> e =
-      EstimateFromImage(RenderPhotograph(scene)->image, acquisition, EstimateOptions());
+  absl::StatusOr<Estimate> e = EstimateAtItsPhaseAngle(scene);
   ASSERT_TRUE(e.ok()) << e.status();
   if (e->method == "comb-fit") {
     // Read right (detection found the cylinder): the check is not reached.
@@ -133,10 +136,7 @@ TEST(PhaseChecksTest, ACausticAtTheLimbLeavesTheSplitUnresolved) {
   scene.amplitude_mm = 0.1236;
   scene.phase_angle_deg = -118.4;
   scene.seed = 112;
-  Acquisition acquisition;
-  acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
-  absl::StatusOr<Estimate> e =
-      EstimateFromImage(RenderPhotograph(scene)->image, acquisition, EstimateOptions());
+  absl::StatusOr<Estimate> e = EstimateAtItsPhaseAngle(scene);
   ASSERT_TRUE(e.ok()) << e.status();
   EXPECT_FALSE(e->peak_spacing_rad.resolved) << e->peak_spacing_rad.value / kDeg;
   EXPECT_FALSE(e->max_slope.resolved);
