@@ -14,6 +14,7 @@
 #include "estimator/optics/radiance.h"
 #include "estimator/stats/golden_section.h"
 #include "estimator/stats/median.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 
 namespace weavefit {
@@ -498,9 +499,14 @@ absl::Status CylinderDetectionOptions::Validate() const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<CylinderGeometry> DetectCylinder(
-    const Image& luminance, const CylinderDetectionOptions& options) {
-  if (absl::Status s = options.Validate(); !s.ok()) return s;
+namespace {
+
+constexpr char kTooFewLimbs[] = "no cylinder found: only ";
+
+// DetectCylinder with `side_fraction` of the region's width at each side
+// taken as background.
+absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
+    const Image& luminance, const CylinderDetectionOptions& options, double side_fraction) {
   if (luminance.channels != 1) {
     return absl::InvalidArgumentError("DetectCylinder needs a one-channel image");
   }
@@ -521,8 +527,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   }
 
   // Background level and noise from the columns at both sides.
-  const int side = std::max(2, static_cast<int>(std::lround(
-                                   options.background_fraction * region.width)));
+  const int side = std::max(2, static_cast<int>(std::lround(side_fraction * region.width)));
   const int row_step = std::max(1, region.height / 256);
   std::vector<double> samples;
   // At most about 32 columns per side and row (every one on small images).
@@ -891,7 +896,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   };
   if (left_points.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "no cylinder found: only ", left_points.size(), " of ", bands,
+        kTooFewLimbs, left_points.size(), " of ", bands,
         " row bands show two limbs against the background (level ", background,
         ", noise ", noise, ")"));
   }
@@ -1180,6 +1185,31 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
     }
   }
   return g;
+}
+
+}  // namespace
+
+absl::StatusOr<CylinderGeometry> DetectCylinder(
+    const Image& luminance, const CylinderDetectionOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  absl::StatusOr<CylinderGeometry> found =
+      DetectWithSideStrips(luminance, options, options.background_fraction);
+  // A cylinder that fills the frame has a limb inside the side strips: the
+  // bands are searched from the strips inward and skip it (limbs 11.5 px
+  // from the edge of a 320 px image, 21 px of a 640 px one, were "no
+  // cylinder"). Then the strips are narrowed to kNarrowSideFraction, at
+  // least kNarrowSidePx.
+  constexpr double kNarrowSideFraction = 0.01;
+  constexpr int kNarrowSidePx = 3;
+  const int width = options.region.IsEmpty() ? luminance.width : options.region.width;
+  const double narrow =
+      std::max(kNarrowSideFraction, kNarrowSidePx / std::max(1.0, static_cast<double>(width)));
+  if (found.ok() || narrow >= options.background_fraction ||
+      !absl::StartsWith(found.status().message(), kTooFewLimbs)) {
+    return found;
+  }
+  absl::StatusOr<CylinderGeometry> narrowed = DetectWithSideStrips(luminance, options, narrow);
+  return narrowed.ok() ? narrowed : found;
 }
 
 }  // namespace weavefit

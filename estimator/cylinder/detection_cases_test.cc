@@ -220,6 +220,24 @@ INSTANTIATE_TEST_SUITE_P(DetectionCases, PhaseAngleTest,
                          ::testing::Values(-110.0, -60.0, 60.0, 110.0),
                          DegreesName);
 
+// A cylinder that fills the frame: its limbs lie inside the strips at the
+// sides first taken as background (4% of the width, 12.8 px here). Both
+// were "no cylinder found" before the strips were narrowed.
+TEST(DetectionCasesTest, LimbsTenPixelsFromTheFrame) {
+  RenderScene scene = CaseScene();
+  scene.center_x_px = 159.5;
+  scene.radius_px = 150.0;
+  ExpectDetected(scene);
+}
+
+TEST(DetectionCasesTest, OneLimbElevenPixelsFromTheFrameAtMinus79Deg) {
+  RenderScene scene = CaseScene();
+  scene.center_x_px = 148.1;
+  scene.radius_px = 136.6;
+  scene.phase_angle_deg = -79.0;
+  ExpectDetected(scene);
+}
+
 TEST(DetectionCasesTest, BodyDarkerThanTheBackgroundTiltedAndOblique) {
   RenderScene scene = CaseScene();
   scene.ambient = 0.002;
