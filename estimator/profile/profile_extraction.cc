@@ -105,7 +105,17 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     std::vector<double> span_diff;
   };
   std::vector<ColumnSums> column_sums(kSubpixel);
+  // Background samples beyond 1.15 radii, and those from 4 px beyond the
+  // limb to there, used when the first are too few: a cylinder that fills
+  // the frame leaves nothing beyond 1.15 radii (a 144 px radius in a 320 px
+  // frame), and the background's level and noise came out 0, so that every
+  // ripple of the profile became a significant glint (a sawtooth read as a
+  // 18-tooth sinusoid).
   std::vector<double> outside;
+  std::vector<double> near_outside;
+  constexpr double kFarBeyondRadii = 1.15;
+  constexpr double kNearBeyondPx = 4.0;
+  constexpr std::size_t kMinBackgroundSamples = 64;
   // Rows read: every row, or evenly spaced ones when options.max_rows caps
   // them. The background is sampled on every background_row_step-th row read.
   const int row_stride =
@@ -122,14 +132,29 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     // Background samples: beyond 1.15 radii, every background_x_step-th
     // pixel of every background_row_step-th row (about 256 rows in all).
     if ((y - geometry.top_row) / row_stride % background_row_step == 0) {
-      const double beyond = 1.15 * geometry.radius_px / cos_tilt;  // px from the axis
+      const double beyond = kFarBeyondRadii * geometry.radius_px / cos_tilt;  // px from the axis
+      const double near = geometry.radius_px / cos_tilt + kNearBeyondPx;
+      auto sample = [&](int x, std::vector<double>* to) {
+        if (!luminance.IsSaturated(x, y)) to->push_back(luminance.At(x, y));
+      };
       const int left_end = static_cast<int>(std::ceil(axis - beyond)) - 1;
       const int right_start = static_cast<int>(std::floor(axis + beyond)) + 1;
-      auto sample = [&](int x) {
-        if (!luminance.IsSaturated(x, y)) outside.push_back(luminance.At(x, y));
-      };
-      for (int x = 0; x <= std::min(left_end, luminance.width - 1); x += background_x_step) sample(x);
-      for (int x = std::max(right_start, 0); x < luminance.width; x += background_x_step) sample(x);
+      for (int x = 0; x <= std::min(left_end, luminance.width - 1); x += background_x_step) {
+        sample(x, &outside);
+      }
+      for (int x = std::max(right_start, 0); x < luminance.width; x += background_x_step) {
+        sample(x, &outside);
+      }
+      const int near_left_end = static_cast<int>(std::ceil(axis - near)) - 1;
+      const int near_right_start = static_cast<int>(std::floor(axis + near)) + 1;
+      for (int x = std::max(left_end + 1, 0); x <= std::min(near_left_end, luminance.width - 1);
+           x += background_x_step) {
+        sample(x, &near_outside);
+      }
+      for (int x = std::max(near_right_start, 0); x < std::min(right_start, luminance.width);
+           x += background_x_step) {
+        sample(x, &near_outside);
+      }
     }
     // The row's pixel footprints as (bin, weight) pairs, relative to the
     // axis column quantised to 1/kSubpixel px (a 1/64 px shift moves φ by
@@ -254,6 +279,9 @@ absl::StatusOr<Profile> ExtractProfile(const Image& luminance,
     }
   }
 
+  if (outside.size() < kMinBackgroundSamples) {
+    outside.insert(outside.end(), near_outside.begin(), near_outside.end());
+  }
   if (!outside.empty()) {
     profile.background = Median(outside);
     for (double& v : outside) v = std::fabs(v - profile.background);
