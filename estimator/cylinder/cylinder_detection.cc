@@ -183,6 +183,10 @@ constexpr double kInferredLimbPx = 1.0;
 // the lit limb's is taken for a terminator (px): a limb's rise is a pixel or
 // two wide, the lens's blur the same at both limbs.
 constexpr double kSoftEdgePx = 2.5;
+// The body in shadow counts as seen when its level stands this many column
+// noises, and this share of the disc's typical level, from the background.
+constexpr double kSeenShadowSigmas = 10.0;
+constexpr double kSeenShadowShare = 0.1;
 
 // Standard error of the radius from the two limb lines: each line's own
 // scatter and its systematic allowance, halved (the radius is half the
@@ -1023,7 +1027,12 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     // the column means), can only show the body's ambient level: no
     // Lambertian, scatter or glint reaches it (DESIGN.md §3). A rise there
     // means the edge taken for the unlit limb is the terminator or beyond.
-    auto shadow_is_flat = [&](const CylinderGeometry& c) {
+    // `seen`, when given, is set when the shadow is flat and stands clearly
+    // above the background: a body seen in its own shadow, whose edge is its
+    // limb (a terminator is taken for a limb only where the body beyond it
+    // is as dark as the background).
+    auto shadow_is_flat = [&](const CylinderGeometry& c, bool* seen = nullptr) {
+      if (seen != nullptr) *seen = false;
       const int side = options.phase_angle_rad > 0 ? 1 : -1;
       const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
       const double half = c.radius_px / std::cos(c.axis_angle_rad);
@@ -1052,7 +1061,13 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
       }
       const double typical = disc.empty() ? 0.0 : Median(disc);
       const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
-      return range < 0.25 * typical + 6.0 * column_noise;
+      const bool flat = range < 0.25 * typical + 6.0 * column_noise;
+      if (seen != nullptr) {
+        const double level = values[values.size() / 2] - background;
+        *seen = flat && std::fabs(level) > std::max(kSeenShadowSigmas * column_noise,
+                                                    kSeenShadowShare * typical);
+      }
+      return flat;
     };
     // Just inside the unlit limb the surface is in shadow (|α| ≥ 20°): its
     // pixels vary across rows by the noise and the cloth's texture, not by
@@ -1126,7 +1141,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     };
     const double phi = lobe_azimuth(g);
     const double miss = std::fabs(phi - half_alpha);
-    const bool flat = shadow_is_flat(g) && unlit_edge_is_smooth(g);
+    bool shadow_seen = false;
+    const bool flat = shadow_is_flat(g, &shadow_seen) && unlit_edge_is_smooth(g);
     // With the unlit limb in shadow, an edge there that rises far more
     // slowly than the lit limb is a terminator: at α = −16° (640×480, a
     // Lambertian body as dark as the background) it stood 12 px inside the
@@ -1140,7 +1156,13 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
                        (std::isfinite(lit_rise) ? lit_rise : 0.0);
     }
     std::string why_not_inferred;
-    if (miss > options.min_lobe_offset_to_infer_rad || !flat || soft_unlit) {
+    // A lobe off α/2 alone does not make the unlit edge a terminator when
+    // the body is seen in shadow inside it: a sawtooth m = 0.47 at −95°, its
+    // outer caustic 6 px inside the lit limb (beyond the columns the lobe is
+    // looked for in), stood 25° off by its inner caustic alone, and a dark
+    // limb inferred 300 px out made the lobe "fit".
+    const bool off_lobe = miss > options.min_lobe_offset_to_infer_rad && !shadow_seen;
+    if (off_lobe || !flat || soft_unlit) {
       // The edge away from the light may be a soft terminator: the tilt is
       // the lit limb's alone.
       const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
