@@ -482,12 +482,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       if (b > 0.0 && b <= most) lambert = b;
     }
     auto chord = [&](int k) {
-      const double straight =
-          s[out_l] + (s[out_r] - s[out_l]) * (k - out_l) / std::max(out_r - out_l, 1);
-      if (lambert == 0.0) return straight;
-      const double c_k = std::cos(azimuth_of(k) - phase_angle_rad);
-      const double c_line = c_l + (c_r - c_l) * (k - out_l) / std::max(out_r - out_l, 1);
-      return straight + lambert * (c_k - c_line);
+      if (lambert > 0.0) return s[out_l] + lambert * (std::cos(azimuth_of(k) - phase_angle_rad) - c_l);
+      return s[out_l] + (s[out_r] - s[out_l]) * (k - out_l) / std::max(out_r - out_l, 1);
     };
     const double lower_local =
         std::min(s[left_index] - chord(left_index), s[right_index] - chord(right_index));

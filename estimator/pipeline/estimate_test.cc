@@ -7,6 +7,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -306,6 +307,31 @@ INSTANTIATE_TEST_SUITE_P(DarkBody, ColouredSawtoothTest, ::testing::Values(-16.0
                            return std::string(info.param < 0 ? "LightOnTheLeft" : "LightOnTheRight");
                          });
 
+// A scene rendered and estimated (balanced) at its own phase angle.
+struct Reading {
+  Rendered rendered;
+  Estimate estimate;
+};
+
+absl::StatusOr<Reading> RenderAndEstimate(const RenderScene& scene) {
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  if (!r.ok()) return r.status();
+  absl::StatusOr<Estimate> e =
+      EstimateFromImage(r->image, Lab(scene.phase_angle_deg), EstimateOptions());
+  if (!e.ok()) return e.status();
+  return Reading{*std::move(r), *std::move(e)};
+}
+
+// The spacing resolved and within 3 stated errors of the truth; its error
+// (deg) into *error when given.
+void ExpectSpacingWithinThreeErrors(const Reading& reading, double* error = nullptr) {
+  const Quantity& spacing = reading.estimate.peak_spacing_rad;
+  ASSERT_TRUE(spacing.resolved);
+  const double off = spacing.value / kDeg - reading.rendered.truth.peak_spacing_deg;
+  EXPECT_LE(std::fabs(off), 3.0 * spacing.stderr_value / kDeg) << off;
+  if (error != nullptr) *error = off;
+}
+
 // A steep sawtooth (m = 0.467, 50°) on a cloth with a strong Lambertian
 // term: over 50° between the peaks the cos(φ − α) dome stands well above a
 // straight chord, and filled the empty valley (9 of 12 such renders, diffuse
@@ -326,14 +352,11 @@ TEST_P(DiffuseSteepSawtoothTest, StaysASawtooth) {
   scene.exposure = 0.0095;
   scene.diffuse = 0.2;
   scene.seed = 18;
-  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
-  ASSERT_TRUE(r.ok()) << r.status();
-  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, Lab(GetParam()), EstimateOptions());
-  ASSERT_TRUE(e.ok()) << e.status();
-  EXPECT_EQ(e->model, ProfileModel::kSawtooth) << ProfileModelName(e->model);
-  ASSERT_TRUE(e->peak_spacing_rad.resolved);
-  const double error = e->peak_spacing_rad.value / kDeg - r->truth.peak_spacing_deg;
-  EXPECT_LE(std::fabs(error), 3.0 * e->peak_spacing_rad.stderr_value / kDeg);
+  absl::StatusOr<Reading> reading = RenderAndEstimate(scene);
+  ASSERT_TRUE(reading.ok()) << reading.status();
+  EXPECT_EQ(reading->estimate.model, ProfileModel::kSawtooth)
+      << ProfileModelName(reading->estimate.model);
+  ExpectSpacingWithinThreeErrors(*reading);
 }
 
 INSTANTIATE_TEST_SUITE_P(EstimateCases, DiffuseSteepSawtoothTest, ::testing::Values(-60.0, 40.0),
@@ -360,15 +383,12 @@ TEST(EstimateTest, ASawtoothFillingAVignettedFrameStaysASawtooth) {
   scene.exposure = 0.0099;
   scene.vignetting = 0.17;
   scene.seed = 2;
-  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
-  ASSERT_TRUE(r.ok()) << r.status();
-  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, Lab(60.66), EstimateOptions());
-  ASSERT_TRUE(e.ok()) << e.status();
-  EXPECT_GT(e->profile.background_noise, 0.0);
-  EXPECT_EQ(e->model, ProfileModel::kSawtooth) << ProfileModelName(e->model);
-  ASSERT_TRUE(e->peak_spacing_rad.resolved);
-  const double error = e->peak_spacing_rad.value / kDeg - r->truth.peak_spacing_deg;
-  EXPECT_LE(std::fabs(error), 3.0 * e->peak_spacing_rad.stderr_value / kDeg);
+  absl::StatusOr<Reading> reading = RenderAndEstimate(scene);
+  ASSERT_TRUE(reading.ok()) << reading.status();
+  EXPECT_GT(reading->estimate.profile.background_noise, 0.0);
+  EXPECT_EQ(reading->estimate.model, ProfileModel::kSawtooth)
+      << ProfileModelName(reading->estimate.model);
+  ExpectSpacingWithinThreeErrors(*reading);
 }
 
 // A steep, fine weave (m = 0.6, 7 px per period) on a 640×480 photograph:
@@ -387,14 +407,11 @@ TEST(EstimateTest, ASteepFineWeaveIsIntegratedFinely) {
   scene.source_blur_deg = 1.0;
   scene.exposure = 0.0111;
   scene.seed = 5;
-  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
-  ASSERT_TRUE(r.ok()) << r.status();
-  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, Lab(-9.97), EstimateOptions());
-  ASSERT_TRUE(e.ok()) << e.status();
-  EXPECT_EQ(e->method, "comb-fit");
-  ASSERT_TRUE(e->peak_spacing_rad.resolved);
-  const double error = e->peak_spacing_rad.value / kDeg - r->truth.peak_spacing_deg;
-  EXPECT_LE(std::fabs(error), 3.0 * e->peak_spacing_rad.stderr_value / kDeg) << error;
+  absl::StatusOr<Reading> reading = RenderAndEstimate(scene);
+  ASSERT_TRUE(reading.ok()) << reading.status();
+  EXPECT_EQ(reading->estimate.method, "comb-fit");
+  double error = 0.0;
+  ASSERT_NO_FATAL_FAILURE(ExpectSpacingWithinThreeErrors(*reading, &error));
   EXPECT_LT(std::fabs(error), 0.15);
 }
 
