@@ -220,6 +220,8 @@ struct EdgeWindow {
   // grazing integral.
   const Blur* blur = nullptr;
   std::vector<double> cell_integral;
+  // Extra pixels at each end of the window for a wide lens blur (WidePad).
+  int pad = 0;
 };
 
 constexpr double kCellPx = 0.25;
@@ -227,21 +229,37 @@ constexpr double kKernelStepPx = 0.02;
 // Below this σ (px) the unblurred model is used: the blur is within the
 // pixel's own footprint.
 constexpr double kMinBlurPx = 0.2;
-// The widest lens blur the limb fit considers, px.
+// The widest lens blur the limb fit considers at first, px.
 constexpr double kMaxBlurPx = 1.5;
+// A first fit at that cap (within kAtCapPx) is refitted through wider
+// windows over lens blurs up to kWideMaxBlurPx: a blur of 2 px put the lit
+// limb of a noise-free 640×480 render 3.2 px out and the radius 2.0 px long
+// through the 9-pixel window, whose end cuts the blurred rise short.
+constexpr double kAtCapPx = 0.1;
+constexpr double kWideMaxBlurPx = 3.5;
+// A lit limb's allowance for a lens blur proposed at the other limb but not
+// used, px per px² of the proposal (DetectWithSideStrips).
+constexpr double kUnusedBlurPxPerPx2 = 1.5;
+
+// The pixels added at each end of an edge window for lens blurs up to
+// max_blur (beyond the first kMaxBlurPx): the blurred rise spans ±3σ.
+int WidePad(double max_blur) {
+  return max_blur > kMaxBlurPx ? static_cast<int>(std::ceil(3.0 * (max_blur - 0.5))) : 0;
+}
 
 EdgeWindow MakeEdgeWindow(const std::vector<double>& v, double background, double e0,
                           int inward, double radius_px, bool glints_may_reach,
-                          double lit_from = 0.0) {
+                          double lit_from = 0.0, int pad = 0, double ramp_px = 0.0) {
   EdgeWindow w;
+  w.pad = pad;
   w.lit_from = lit_from;
   w.v = &v;
   w.background = background;
   w.inward = inward;
   w.r = radius_px;
   const int n = static_cast<int>(v.size());
-  const int x_first = static_cast<int>(std::floor(e0 - inward * 2.0 + 0.5));
-  for (int k = 0; k <= 8; ++k) {
+  const int x_first = static_cast<int>(std::floor(e0 - inward * (2.0 + pad) + 0.5));
+  for (int k = 0; k <= 8 + 2 * pad; ++k) {
     const int x = x_first + inward * k;
     if (x >= 0 && x < n) w.xs.push_back(x);
   }
@@ -261,9 +279,10 @@ EdgeWindow MakeEdgeWindow(const std::vector<double>& v, double background, doubl
     double low = std::numeric_limits<double>::infinity();
     for (std::size_t i = 0; i < w.xs.size(); ++i) {
       const double inside = inward > 0 ? w.xs[i] - 0.5 - e0 : e0 - w.xs[i] - 0.5;
-      if (inside < 1.0) continue;
+      if (inside < 1.0 + std::max<double>(pad, ramp_px)) continue;
       const double level = v[w.xs[i]];
-      if (i >= 4 && level > low + kEdgeRise * std::max(low - background, 0.0)) {
+      if (i >= static_cast<std::size_t>(4 + pad) &&
+          level > low + kEdgeRise * std::max(low - background, 0.0)) {
         w.xs.resize(i);
         break;
       }
@@ -323,6 +342,11 @@ Blur MakeBlur(double sigma) {
   return b;
 }
 
+// How far inside a first limb estimate a blurred limb's own rise may run
+// (px): a rise inward there is not a glint's (MakeEdgeWindow). The first
+// estimate lies out on the rise, so 2.5σ; none through no blur.
+double RampPx(const Blur& blur) { return blur.kernel.empty() ? 0.0 : 2.5 * blur.sigma; }
+
 // Has the window seen through `blur` (kept by address: it must outlive the
 // window's use), cutting its cells the first time.
 void SetBlur(EdgeWindow* w, const Blur& blur) {
@@ -332,8 +356,10 @@ void SetBlur(EdgeWindow* w, const Blur& blur) {
   }
   if (w->cell_integral.empty()) {
     // Cells from the limb to past the deepest pixel (at most 9 px inside,
-    // e within a pixel and a half of e0) by the widest kernel's reach.
-    const int cells = static_cast<int>(std::ceil((11.0 + 0.5 + 3.0 * kMaxBlurPx) / kCellPx));
+    // e within a pixel and a half of e0, and the pad's share of both) by
+    // the widest kernel's reach.
+    const int cells =
+        static_cast<int>(std::ceil((11.0 + 3.0 * w->pad + 0.5 + 3.0 * kWideMaxBlurPx) / kCellPx));
     for (int k = 0; k < cells; ++k) {
       const double lo = std::max(k * kCellPx, w->lit_from);
       const double hi = (k + 1) * kCellPx;
@@ -424,10 +450,10 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
                   double fixed_scatter = std::numeric_limits<double>::quiet_NaN(),
                   double* scatter_out = nullptr, const Blur& blur = Blur(),
                   double center = std::numeric_limits<double>::quiet_NaN(),
-                  double lit_from = 0.0) {
+                  double lit_from = 0.0, int pad = 0) {
   if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
-  EdgeWindow w =
-      MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach, lit_from);
+  EdgeWindow w = MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach, lit_from,
+                                pad, RampPx(blur));
   if (w.xs.empty()) return e0;
   SetBlur(&w, blur);
   double best_e = e0;
@@ -695,6 +721,16 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     if (light == 0 || toward_light || shadowed_limb) return 0.0;
     return radius * (1.0 - std::cos(options.phase_angle_rad));
   };
+  // Pixels added to each end of the edge windows (WidePad): 0 until the
+  // lens blur is found at the first fit's cap.
+  int pad = 0;
+  // ... but not at a limb the glints may reach, whose window they cut short
+  // (a wide window took them in and drew that limb inward): it is seen
+  // through the blur the other limb proposes.
+  int glint_pad = 0;
+  auto limb_pad = [&](bool toward_light) {
+    return glints_reach_limb && toward_light ? glint_pad : pad;
+  };
   auto refine_limb = [&](int inward, double scatter, std::vector<double>* fitted,
                          const Blur& blur = Blur(), const Line* around = nullptr) {
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
@@ -713,7 +749,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
           {band.row, region.x + RefineEdge(band.profile, background, e0, inward, band.radius,
                                            glints_reach_limb && toward_light,
                                            !shadowed_limb || toward_light, scatter, &s, blur,
-                                           center, lit_from(toward_light, band.radius))});
+                                           center, lit_from(toward_light, band.radius),
+                                           limb_pad(toward_light))});
       if (fitted != nullptr) fitted->push_back(s);
     }
     return points;
@@ -739,6 +776,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     double scatter = std::numeric_limits<double>::quiet_NaN();
     Blur blur;
     Line line;  // the first pass's line moved by the fitted δ
+    bool proposed = false;  // the blur was fitted (no glints cut a window)
   };
   auto joint_limb = [&](int inward, const std::vector<LimbPoint>& first,
                         const Blur* fixed_blur = nullptr) {
@@ -750,16 +788,22 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     for (std::size_t i = 0; i < bands_seen.size(); ++i) {
       if (!line.inlier[i]) continue;
       const BandEdges& band = bands_seen[i];
-      EdgeWindow w = MakeEdgeWindow(band.profile, background,
-                                    inward > 0 ? band.left_cross : band.right_cross, inward,
-                                    band.radius, glints_reach_limb && toward_light,
-                                    lit_from(toward_light, band.radius));
+      EdgeWindow w = MakeEdgeWindow(
+          band.profile, background, inward > 0 ? band.left_cross : band.right_cross, inward,
+          band.radius, glints_reach_limb && toward_light, lit_from(toward_light, band.radius),
+          limb_pad(toward_light), fixed_blur != nullptr ? RampPx(*fixed_blur) : 0.0);
       if (w.xs.empty()) continue;
       windows.push_back(std::move(w));
       edges.push_back(line.at_center + line.slope * (band.row - center_row) - region.x);
     }
     bool extend = true;
-    for (const EdgeWindow& w : windows) extend = extend && w.xs.size() == 9;
+    for (const EdgeWindow& w : windows) {
+      extend = extend && w.xs.size() == static_cast<std::size_t>(9 + 2 * w.pad);
+    }
+    // The scan's reach beyond a pixel: 2.5 px, and the pad's width more
+    // through the wide windows; through a blur found at the other limb as
+    // well, whose rise starts far out however the glints cut the window.
+    const bool reach_out = extend || (fixed_blur != nullptr && fixed_blur->sigma >= 0.5);
     struct Scan {
       double sse = std::numeric_limits<double>::infinity();
       double delta = 0.0;
@@ -792,14 +836,14 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
         // A best at the end of the range: the first estimates are off by
         // more than a pixel (a wide blur's rise starts far out), so on,
         // unless glints cut a window short (they would draw the edge in).
-        for (int k = 21; k <= 50 && extend && std::fabs(best.delta) >= 0.95; ++k) {
+        for (int k = 21; k <= 50 + 20 * pad && reach_out && std::fabs(best.delta) >= 0.95; ++k) {
           consider(std::copysign(0.05 * k, best.delta));
         }
         const double coarse = best.delta;
         for (int k = -10; k <= 10; ++k) consider(coarse + 0.005 * k);
       } else {
         for (int k = -10; k <= 10; ++k) consider(0.1 * k);
-        for (int k = 11; k <= 25 && extend && std::fabs(best.delta) >= 0.95; ++k) {
+        for (int k = 11; k <= 25 + 10 * pad && reach_out && std::fabs(best.delta) >= 0.95; ++k) {
           consider(std::copysign(0.1 * k, best.delta));
         }
       }
@@ -811,8 +855,11 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
       fit.blur = *fixed_blur;
     } else {
       // Glints that cut a window short would pass for blur: no proposal then.
+      // Through the wide windows, from the first cap on.
       const std::vector<double> grid =
-          extend ? std::vector<double>{0.0, 0.35, 0.7, 1.0, kMaxBlurPx} : std::vector<double>{0.0};
+          !extend   ? std::vector<double>{0.0}
+          : pad > 0 ? std::vector<double>{1.0, kMaxBlurPx, 2.0, 2.5, 3.0, kWideMaxBlurPx}
+                    : std::vector<double>{0.0, 0.35, 0.7, 1.0, kMaxBlurPx};
       std::size_t best_k = 0;
       double best_sse = std::numeric_limits<double>::infinity();
       for (std::size_t k = 0; k < grid.size(); ++k) {
@@ -830,6 +877,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
                                      lo, hi, 0.05);
       }
       fit.blur = MakeBlur(sigma < kMinBlurPx ? 0.0 : sigma);
+      fit.proposed = extend;
     }
     const Scan final_scan = scan(fit.blur, true);
     fit.scatter = final_scan.scatter;
@@ -864,19 +912,58 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
   double left_held_px = 0.0;
   double right_held_px = 0.0;
   // One lens blurs both limbs alike, so each limb's fit proposes a blur and
-  // the smaller is taken for both: what looks like blur at one limb only is
-  // something else there (a rim of clipped scatter, glints at the lit limb,
-  // a terminator's ramp taken for the limb in shadow), and over-correcting
-  // it moved limbs by up to a pixel. Through no blur, a blurred limb comes
+  // the smaller is taken for both (or the one proposal, below): what looks
+  // like blur at one limb only is something else there (a rim of clipped
+  // scatter, glints at the lit limb, a terminator's ramp taken for the limb
+  // in shadow), and over-correcting it moved limbs by up to a pixel. Through no blur, a blurred limb comes
   // out too far out (above); a limb in shadow too, as a plain step whose
   // blurred light inside the window's end pulls the fitted body level down:
   // 0.26 and 0.37 px at a lens blur of 0.8 and 1.2 px.
-  const LimbFit left_try = joint_limb(+1, left_points);
-  const LimbFit right_try = joint_limb(-1, right_points);
-  const double sigma =
-      std::isfinite(left_try.scatter) && std::isfinite(right_try.scatter)
-          ? std::min(left_try.blur.sigma, right_try.blur.sigma)
-          : 0.0;
+  LimbFit left_try = joint_limb(+1, left_points);
+  LimbFit right_try = joint_limb(-1, right_points);
+  auto lens_sigma = [&](bool proposers_only) {
+    if (!std::isfinite(left_try.scatter) || !std::isfinite(right_try.scatter)) return 0.0;
+    if (proposers_only && !left_try.proposed) return right_try.blur.sigma;
+    if (proposers_only && !right_try.proposed) return left_try.blur.sigma;
+    return std::min(left_try.blur.sigma, right_try.blur.sigma);
+  };
+  // Where the glints cut the lit limb's windows, the limb in shadow proposes
+  // alone, as long as it is a limb: below 90° the terminator lies beyond it.
+  // (From 90° on the edge away from the light may be the terminator, a wide
+  // ramp that would pass for blur: at −120°, taken for it, the lit limb came
+  // out a pixel in.)
+  const bool alone = std::fabs(options.phase_angle_rad) < 0.5 * M_PI;
+  double sigma = lens_sigma(alone);
+  if (sigma >= kMaxBlurPx - kAtCapPx) {
+    // The blur at the cap: refitted through wider windows, over wider blurs
+    // (the narrow windows' fit is kept where a wide one fails).
+    pad = WidePad(kWideMaxBlurPx);
+    LimbFit left_wide = joint_limb(+1, left_points);
+    LimbFit right_wide = joint_limb(-1, right_points);
+    if (std::isfinite(left_wide.scatter) && std::isfinite(right_wide.scatter)) {
+      left_try = std::move(left_wide);
+      right_try = std::move(right_wide);
+      sigma = lens_sigma(alone);
+      glint_pad = WidePad(sigma);
+    } else {
+      pad = 0;
+    }
+  }
+  // From 90° on, a blur the limb in shadow alone proposes is not used (above),
+  // and a blurred lit limb then comes out too far out: 0.2, 1.1 and 3.4 px at
+  // a lens blur of 1, 1.3 and 2 px (100°, 640×480, noise-free; the proposal
+  // 1.03 px, then at the cap). That limb's allowance says so: 1.5 px per px²
+  // of the proposal.
+  double left_systematic_px = kLimbSystematicPx;
+  double right_systematic_px = kLimbSystematicPx;
+  if (!alone && std::isfinite(left_try.scatter) && std::isfinite(right_try.scatter) &&
+      left_try.proposed != right_try.proposed) {
+    const double proposal = left_try.proposed ? left_try.blur.sigma : right_try.blur.sigma;
+    if (proposal > sigma + kMinBlurPx) {
+      (left_try.proposed ? right_systematic_px : left_systematic_px) =
+          std::hypot(kLimbSystematicPx, kUnusedBlurPxPerPx2 * proposal * proposal);
+    }
+  }
   const Blur lens = MakeBlur(sigma);
   for (int inward : {+1, -1}) {
     std::vector<LimbPoint>& points = inward > 0 ? left_points : right_points;
@@ -917,7 +1004,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
   g.axis_angle_rad = std::atan(-slope);
   g.radius_px = 0.5 * (right.at_center - left.at_center) * std::cos(g.axis_angle_rad);
   g.limb_rms_px = std::sqrt(0.5 * (left.rms * left.rms + right.rms * right.rms));
-  SetRadiusStderr(left, kLimbSystematicPx, right, kLimbSystematicPx, &g);
+  SetRadiusStderr(left, left_systematic_px, right, right_systematic_px, &g);
   g.left_observed = true;
   g.right_observed = true;
   if (g.radius_px < options.min_radius_px) {
@@ -998,7 +1085,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     g.axis_angle_rad = std::atan(-0.5 * (l.slope + r.slope));
     g.radius_px = 0.5 * (r.at_center - l.at_center) * std::cos(g.axis_angle_rad);
     g.limb_rms_px = std::sqrt(0.5 * (l.rms * l.rms + r.rms * r.rms));
-    SetRadiusStderr(l, kLimbSystematicPx, r, kLimbSystematicPx, &g);
+    SetRadiusStderr(l, left_systematic_px, r, right_systematic_px, &g);
   }
   // With the phase angle known, the lobe must stand near the mirror azimuth
   // α/2. When it does not, the edge on the side away from the light may be

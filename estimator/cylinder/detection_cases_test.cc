@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -471,6 +472,70 @@ INSTANTIATE_TEST_SUITE_P(DetectionCases, LensBlurTest, ::testing::Values(0.8, 1.
                          [](const ::testing::TestParamInfo<double>& info) {
                            return "Sigma" + std::to_string(std::lround(10 * info.param)) + "Tenths";
                          });
+
+// A lens blur beyond the first fit's 1.5 px, refitted through wider windows
+// (up to 3.5 px). Through the 9-pixel windows a blur of 2 px put the lit limb
+// 3.2 px out and the radius 2.0 px long (640×480, −60°, noise-free). Each
+// case: (phase angle, σ px).
+void ExpectLimbsThroughWideBlur(const RenderScene& scene) {
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_NEAR(g->radius_px, rendered.truth.radius_px, 0.25);
+  EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, 0.25);
+  EXPECT_LE(std::fabs(g->radius_px - rendered.truth.radius_px), 3.0 * g->radius_stderr_px);
+}
+
+class WideLensBlurTest : public ::testing::TestWithParam<std::pair<double, double>> {};
+
+TEST_P(WideLensBlurTest, LimbsInPlace) {
+  RenderScene scene = CaseScene();
+  scene.phase_angle_deg = GetParam().first;
+  scene.optics_blur_px = GetParam().second;
+  ExpectLimbsThroughWideBlur(scene);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    DetectionCases, WideLensBlurTest,
+    ::testing::Values(std::make_pair(10.0, 2.5), std::make_pair(-60.0, 2.0),
+                      std::make_pair(-89.0, 3.0)),
+    [](const ::testing::TestParamInfo<std::pair<double, double>>& info) {
+      const long phase = std::lround(info.param.first);
+      return std::string(phase < 0 ? "Minus" : "Plus") + std::to_string(std::labs(phase)) +
+             "DegSigma" + std::to_string(std::lround(10 * info.param.second)) + "Tenths";
+    });
+
+// At 60-90° the glints may cut the lit limb's window short, and its blurred
+// rise was taken for them: at 75° a blur of 1.3 px put that limb 1.1 px out
+// and the radius 0.69 px long (640×480, noise-free). It is now seen through
+// the blur the limb in shadow proposes, and its window keeps the rise.
+TEST(DetectionCasesTest, ABlurredLitLimbIsNotCutAsAGlint) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.center_x_px = 319.75;
+  scene.radius_px = 256.0;
+  scene.phase_angle_deg = 75.0;
+  scene.optics_blur_px = 1.3;
+  scene.photons_full_scale = 0.0;
+  scene.read_noise = 0.0;
+  ExpectLimbsThroughWideBlur(scene);
+}
+
+// From 90° on the limb in shadow may be the terminator, whose ramp would pass
+// for blur, so its proposal is not used and the lit limb, its window cut by
+// the glints, comes out too far out (1.9 px at 2 px, 100°, 640×480). The
+// radius's stated error says so.
+TEST(DetectionCasesTest, AnUnusedLensBlurWidensTheRadiusError) {
+  RenderScene scene = CaseScene();
+  scene.phase_angle_deg = 100.0;
+  scene.optics_blur_px = 2.0;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_GE(g->radius_stderr_px, 1.0);
+  EXPECT_LE(std::fabs(g->radius_px - rendered.truth.radius_px), 3.0 * g->radius_stderr_px);
+}
 
 // Below 12° the limb away from the light is lit only from the terminator on,
 // R·(1 − cos α) inside it (0.5 to 1.2 px here), and its grazing scatter starts
