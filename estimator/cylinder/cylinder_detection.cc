@@ -240,6 +240,9 @@ constexpr double kWideMaxBlurPx = 3.5;
 // A lit limb's allowance for a lens blur proposed at the other limb but not
 // used, px per px² of the proposal (DetectWithSideStrips).
 constexpr double kUnusedBlurPxPerPx2 = 1.5;
+// The same for a lit limb seen through the blur the limb in shadow proposed
+// alone beyond 90°, px per px of that blur, when no glints cut its windows.
+constexpr double kThroughOtherBlurPxPerPx = 0.5;
 
 // The pixels added at each end of an edge window for lens blurs up to
 // max_blur (beyond the first kMaxBlurPx): the blurred rise spans ±3σ.
@@ -534,9 +537,13 @@ namespace {
 constexpr char kTooFewLimbs[] = "no cylinder found: only ";
 
 // DetectCylinder with `side_fraction` of the region's width at each side
-// taken as background.
-absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
-    const Image& luminance, const CylinderDetectionOptions& options, double side_fraction) {
+// taken as background. With `shadow_is_limb`, the edge away from the light is
+// known to be a limb (a first pass saw both): its lens blur proposal counts
+// alone at any phase angle.
+absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
+                                                      const CylinderDetectionOptions& options,
+                                                      double side_fraction,
+                                                      bool shadow_is_limb = false) {
   if (luminance.channels != 1) {
     return absl::InvalidArgumentError("DetectCylinder needs a one-channel image");
   }
@@ -777,6 +784,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     Blur blur;
     Line line;  // the first pass's line moved by the fitted δ
     bool proposed = false;  // the blur was fitted (no glints cut a window)
+    bool whole = false;     // no glints cut a window
   };
   auto joint_limb = [&](int inward, const std::vector<LimbPoint>& first,
                         const Blur* fixed_blur = nullptr) {
@@ -880,6 +888,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
       fit.proposed = extend;
     }
     const Scan final_scan = scan(fit.blur, true);
+    fit.whole = extend;
     fit.scatter = final_scan.scatter;
     fit.line = line;
     fit.line.at_center += final_scan.delta;
@@ -932,7 +941,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
   // (From 90° on the edge away from the light may be the terminator, a wide
   // ramp that would pass for blur: at −120°, taken for it, the lit limb came
   // out a pixel in.)
-  const bool alone = std::fabs(options.phase_angle_rad) < 0.5 * M_PI;
+  const bool alone = shadow_is_limb || std::fabs(options.phase_angle_rad) < 0.5 * M_PI;
   double sigma = lens_sigma(alone);
   if (sigma >= kMaxBlurPx - kAtCapPx) {
     // The blur at the cap: refitted through wider windows, over wider blurs
@@ -956,10 +965,12 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
   // of the proposal.
   double left_systematic_px = kLimbSystematicPx;
   double right_systematic_px = kLimbSystematicPx;
+  double unused_blur_px = 0.0;
   if (!alone && std::isfinite(left_try.scatter) && std::isfinite(right_try.scatter) &&
       left_try.proposed != right_try.proposed) {
     const double proposal = left_try.proposed ? left_try.blur.sigma : right_try.blur.sigma;
     if (proposal > sigma + kMinBlurPx) {
+      unused_blur_px = proposal;
       (left_try.proposed ? right_systematic_px : left_systematic_px) =
           std::hypot(kLimbSystematicPx, kUnusedBlurPxPerPx2 * proposal * proposal);
     }
@@ -970,6 +981,17 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
     const LimbFit fit = joint_limb(inward, points, &lens);
     if (!std::isfinite(fit.scatter)) continue;
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
+    if (shadow_is_limb && toward_light && !(inward > 0 ? left_try : right_try).proposed) {
+      // The lit limb placed through the limb in shadow's blur, from 90° on,
+      // where the outer caustic nears it: within 0.1 px at 95-100° (2 and
+      // 3 px, 640×480, noise-free) but 1.6 px in at 120° and 3 px, where
+      // the glints are blurred into the limb's rise, and 2.9 px out at 120°
+      // and 2 px, where they cut its window short. Its allowance: 0.5 px
+      // per px of blur, or as for an unused blur when the window was cut.
+      (inward > 0 ? left_systematic_px : right_systematic_px) = std::hypot(
+          kLimbSystematicPx, fit.whole ? kThroughOtherBlurPxPerPx * sigma
+                                       : kUnusedBlurPxPerPx2 * sigma * sigma);
+    }
     if (shadowed_limb && !toward_light) {
       // S held at zero in both passes: only the blur and the line are new.
       points = refine_limb(inward, 0.0, nullptr, lens, &fit.line);
@@ -1005,6 +1027,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(
   g.radius_px = 0.5 * (right.at_center - left.at_center) * std::cos(g.axis_angle_rad);
   g.limb_rms_px = std::sqrt(0.5 * (left.rms * left.rms + right.rms * right.rms));
   SetRadiusStderr(left, left_systematic_px, right, right_systematic_px, &g);
+  g.lens_blur_px = sigma;
+  g.unused_blur_px = unused_blur_px;
   g.left_observed = true;
   g.right_observed = true;
   if (g.radius_px < options.min_radius_px) {
@@ -1303,6 +1327,17 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
   if (absl::Status s = options.Validate(); !s.ok()) return s;
   absl::StatusOr<CylinderGeometry> found =
       DetectWithSideStrips(luminance, options, options.background_fraction);
+  // From 90° on, the blur the limb in shadow alone proposes is not used, for
+  // that edge may be the terminator. When both limbs came out seen, it was a
+  // limb: the lit limb is placed again through that blur. (A sawtooth at
+  // 100°, lens blur 2 px, 640×480, noise-free: its lit limb 3.4 px out,
+  // then within 0.1 px.)
+  if (found.ok() && found->unused_blur_px > 0.0 && found->left_observed &&
+      found->right_observed) {
+    absl::StatusOr<CylinderGeometry> again =
+        DetectWithSideStrips(luminance, options, options.background_fraction, true);
+    if (again.ok() && again->left_observed && again->right_observed) return again;
+  }
   // A cylinder that fills the frame has a limb inside the side strips: the
   // bands are searched from the strips inward and skip it (limbs 11.5 px
   // from the edge of a 320 px image, 21 px of a 640 px one, were "no

@@ -40,6 +40,11 @@ struct CylinderGeometry {
   // The allowances' share of radius_stderr_px (the rest is the lines'
   // scatter): repeated photographs of one set-up share it.
   double radius_systematic_px = 0.0;
+  // The lens blur (Gaussian σ, px) the limbs were fitted through, and one
+  // the limb in shadow proposed that was not used (0 when none; its
+  // allowance is then in radius_stderr_px).
+  double lens_blur_px = 0.0;
+  double unused_blur_px = 0.0;
 
   // radius_stderr_px / radius_px: the relative error of the scale from
   // pixels to azimuth (0 for an empty geometry).
