@@ -924,8 +924,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // the smaller is taken for both (or the one proposal, below): what looks
   // like blur at one limb only is something else there (a rim of clipped
   // scatter, glints at the lit limb, a terminator's ramp taken for the limb
-  // in shadow), and over-correcting it moved limbs by up to a pixel. Through no blur, a blurred limb comes
-  // out too far out (above); a limb in shadow too, as a plain step whose
+  // in shadow), and over-correcting it moved limbs by up to a pixel. Through
+  // no blur, a blurred limb comes out too far out (above); a limb in shadow too, as a plain step whose
   // blurred light inside the window's end pulls the fitted body level down:
   // 0.26 and 0.37 px at a lens blur of 0.8 and 1.2 px.
   LimbFit left_try = joint_limb(+1, left_points);
@@ -1329,7 +1329,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       DetectWithSideStrips(luminance, options, options.background_fraction);
   // From 90° on, the blur the limb in shadow alone proposes is not used, for
   // that edge may be the terminator. When both limbs came out seen, it was a
-  // limb: the lit limb is placed again through that blur. (A sawtooth at
+  // limb: the lit limb is placed again through that blur. (A sinusoid at
   // 100°, lens blur 2 px, 640×480, noise-free: its lit limb 3.4 px out,
   // then within 0.1 px.)
   if (found.ok() && found->unused_blur_px > 0.0 && found->left_observed &&
