@@ -925,9 +925,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // like blur at one limb only is something else there (a rim of clipped
   // scatter, glints at the lit limb, a terminator's ramp taken for the limb
   // in shadow), and over-correcting it moved limbs by up to a pixel. Through
-  // no blur, a blurred limb comes out too far out (above); a limb in shadow too, as a plain step whose
-  // blurred light inside the window's end pulls the fitted body level down:
-  // 0.26 and 0.37 px at a lens blur of 0.8 and 1.2 px.
+  // no blur, a blurred limb comes out too far out (above); a limb in shadow
+  // too, as a plain step whose blurred light inside the window's end pulls
+  // the fitted body level down: 0.26 and 0.37 px at a lens blur of 0.8 and
+  // 1.2 px.
   LimbFit left_try = joint_limb(+1, left_points);
   LimbFit right_try = joint_limb(-1, right_points);
   auto lens_sigma = [&](bool proposers_only) {
