@@ -783,8 +783,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     double scatter = std::numeric_limits<double>::quiet_NaN();
     Blur blur;
     Line line;  // the first pass's line moved by the fitted δ
-    bool proposed = false;  // the blur was fitted (no glints cut a window)
-    bool whole = false;     // no glints cut a window
+    // No glints cut a window: a fit that chose its blur proposed one.
+    bool whole = false;
   };
   auto joint_limb = [&](int inward, const std::vector<LimbPoint>& first,
                         const Blur* fixed_blur = nullptr) {
@@ -885,7 +885,6 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
                                      lo, hi, 0.05);
       }
       fit.blur = MakeBlur(sigma < kMinBlurPx ? 0.0 : sigma);
-      fit.proposed = extend;
     }
     const Scan final_scan = scan(fit.blur, true);
     fit.whole = extend;
@@ -933,8 +932,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   LimbFit right_try = joint_limb(-1, right_points);
   auto lens_sigma = [&](bool proposers_only) {
     if (!std::isfinite(left_try.scatter) || !std::isfinite(right_try.scatter)) return 0.0;
-    if (proposers_only && !left_try.proposed) return right_try.blur.sigma;
-    if (proposers_only && !right_try.proposed) return left_try.blur.sigma;
+    if (proposers_only && !left_try.whole) return right_try.blur.sigma;
+    if (proposers_only && !right_try.whole) return left_try.blur.sigma;
     return std::min(left_try.blur.sigma, right_try.blur.sigma);
   };
   // Where the glints cut the lit limb's windows, the limb in shadow proposes
@@ -968,11 +967,11 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   double right_systematic_px = kLimbSystematicPx;
   double unused_blur_px = 0.0;
   if (!alone && std::isfinite(left_try.scatter) && std::isfinite(right_try.scatter) &&
-      left_try.proposed != right_try.proposed) {
-    const double proposal = left_try.proposed ? left_try.blur.sigma : right_try.blur.sigma;
+      left_try.whole != right_try.whole) {
+    const double proposal = left_try.whole ? left_try.blur.sigma : right_try.blur.sigma;
     if (proposal > sigma + kMinBlurPx) {
       unused_blur_px = proposal;
-      (left_try.proposed ? right_systematic_px : left_systematic_px) =
+      (left_try.whole ? right_systematic_px : left_systematic_px) =
           std::hypot(kLimbSystematicPx, kUnusedBlurPxPerPx2 * proposal * proposal);
     }
   }
@@ -982,7 +981,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     const LimbFit fit = joint_limb(inward, points, &lens);
     if (!std::isfinite(fit.scatter)) continue;
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
-    if (shadow_is_limb && toward_light && !(inward > 0 ? left_try : right_try).proposed) {
+    if (shadow_is_limb && toward_light && !(inward > 0 ? left_try : right_try).whole) {
       // The lit limb placed through the limb in shadow's blur, from 90° on,
       // where the outer caustic nears it: within 0.1 px at 95-100° (2 and
       // 3 px, 640×480, noise-free) but 1.6 px in at 120° and 3 px, where

@@ -509,17 +509,22 @@ INSTANTIATE_TEST_SUITE_P(
 // rise was taken for them: at 75° a blur of 1.3 px put that limb 1.1 px out
 // and the radius 0.69 px long (640×480, noise-free). It is now seen through
 // the blur the limb in shadow proposes, and its window keeps the rise.
-TEST(DetectionCasesTest, ABlurredLitLimbIsNotCutAsAGlint) {
+// A noise-free 640×480 scene at a phase angle, through a lens blur σ (px).
+RenderScene NoiseFreeBlurredScene(double phase_angle_deg, double optics_blur_px) {
   RenderScene scene = CaseScene();
   scene.width_px = 640;
   scene.height_px = 480;
   scene.center_x_px = 319.75;
   scene.radius_px = 256.0;
-  scene.phase_angle_deg = 75.0;
-  scene.optics_blur_px = 1.3;
+  scene.phase_angle_deg = phase_angle_deg;
+  scene.optics_blur_px = optics_blur_px;
   scene.photons_full_scale = 0.0;
   scene.read_noise = 0.0;
-  ExpectLimbsThroughWideBlur(scene);
+  return scene;
+}
+
+TEST(DetectionCasesTest, ABlurredLitLimbIsNotCutAsAGlint) {
+  ExpectLimbsThroughWideBlur(NoiseFreeBlurredScene(75.0, 1.3));
 }
 
 // From 90° on the limb in shadow may be the terminator, whose ramp would pass
@@ -527,21 +532,8 @@ TEST(DetectionCasesTest, ABlurredLitLimbIsNotCutAsAGlint) {
 // its window cut by the glints, came out too far out (3.4 px at a 2 px blur,
 // 100°, 640×480, noise-free). When both limbs come out seen, that edge was a
 // limb: the lit limb is placed again through its blur, with an allowance.
-RenderScene BackLitBlurredScene(double phase_angle_deg) {
-  RenderScene scene = CaseScene();
-  scene.width_px = 640;
-  scene.height_px = 480;
-  scene.center_x_px = 319.75;
-  scene.radius_px = 256.0;
-  scene.phase_angle_deg = phase_angle_deg;
-  scene.optics_blur_px = 2.0;
-  scene.photons_full_scale = 0.0;
-  scene.read_noise = 0.0;
-  return scene;
-}
-
 TEST(DetectionCasesTest, ABackLitBlurredLimbIsPlacedThroughTheOtherLimbsBlur) {
-  ExpectLimbsThroughWideBlur(BackLitBlurredScene(100.0));
+  ExpectLimbsThroughWideBlur(NoiseFreeBlurredScene(100.0, 2.0));
 }
 
 // At 120° the outer caustic lies about 6 px inside the lit limb and its
@@ -549,7 +541,7 @@ TEST(DetectionCasesTest, ABackLitBlurredLimbIsPlacedThroughTheOtherLimbsBlur) {
 // (2.7 px for a sinusoid of h0 = 0.1 mm, seed 1), and the radius's stated
 // error covers it.
 TEST(DetectionCasesTest, GlintsBlurredIntoTheLitLimbWidenTheRadiusError) {
-  const RenderScene scene = BackLitBlurredScene(120.0);
+  const RenderScene scene = NoiseFreeBlurredScene(120.0, 2.0);
   const Rendered rendered = Render(scene);
   absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
   ASSERT_TRUE(g.ok()) << g.status();
