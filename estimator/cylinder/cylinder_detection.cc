@@ -1325,19 +1325,23 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
 absl::StatusOr<CylinderGeometry> DetectCylinder(
     const Image& luminance, const CylinderDetectionOptions& options) {
   if (absl::Status s = options.Validate(); !s.ok()) return s;
-  absl::StatusOr<CylinderGeometry> found =
-      DetectWithSideStrips(luminance, options, options.background_fraction);
   // From 90° on, the blur the limb in shadow alone proposes is not used, for
   // that edge may be the terminator. When both limbs came out seen, it was a
   // limb: the lit limb is placed again through that blur. (A sinusoid at
   // 100°, lens blur 2 px, 640×480, noise-free: its lit limb 3.4 px out,
   // then within 0.1 px.)
-  if (found.ok() && found->unused_blur_px > 0.0 && found->left_observed &&
-      found->right_observed) {
-    absl::StatusOr<CylinderGeometry> again =
-        DetectWithSideStrips(luminance, options, options.background_fraction, true);
-    if (again.ok() && again->left_observed && again->right_observed) return again;
-  }
+  auto detect = [&](double side_fraction) {
+    absl::StatusOr<CylinderGeometry> first =
+        DetectWithSideStrips(luminance, options, side_fraction);
+    if (first.ok() && first->unused_blur_px > 0.0 && first->left_observed &&
+        first->right_observed) {
+      absl::StatusOr<CylinderGeometry> again =
+          DetectWithSideStrips(luminance, options, side_fraction, true);
+      if (again.ok() && again->left_observed && again->right_observed) return again;
+    }
+    return first;
+  };
+  absl::StatusOr<CylinderGeometry> found = detect(options.background_fraction);
   // A cylinder that fills the frame has a limb inside the side strips: the
   // bands are searched from the strips inward and skip it (limbs 11.5 px
   // from the edge of a 320 px image, 21 px of a 640 px one, were "no
@@ -1352,7 +1356,7 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       !absl::StartsWith(found.status().message(), kTooFewLimbs)) {
     return found;
   }
-  absl::StatusOr<CylinderGeometry> narrowed = DetectWithSideStrips(luminance, options, narrow);
+  absl::StatusOr<CylinderGeometry> narrowed = detect(narrow);
   return narrowed.ok() ? narrowed : found;
 }
 

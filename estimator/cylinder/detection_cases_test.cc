@@ -536,6 +536,18 @@ TEST(DetectionCasesTest, ABackLitBlurredLimbIsPlacedThroughTheOtherLimbsBlur) {
   ExpectLimbsThroughWideBlur(NoiseFreeBlurredScene(100.0, 2.0));
 }
 
+// The same where the cylinder fills the frame: its limb in shadow lies
+// inside the side strips, so detection runs again with narrow strips, and
+// that run too places the lit limb through the other limb's blur. (A
+// sawtooth at 93°, 1024×768, limb 18 px from the edge: its lit limb was
+// 3.3 px out, the spacing read as a sinusoid's.)
+TEST(DetectionCasesTest, ABackLitBlurredLimbInTheSideStripsIsPlacedThroughTheOtherLimbsBlur) {
+  RenderScene scene = NoiseFreeBlurredScene(100.0, 2.0);
+  scene.center_x_px = 310.25;
+  scene.radius_px = 292.0;
+  ExpectLimbsThroughWideBlur(scene);
+}
+
 // At 120° the outer caustic lies about 6 px inside the lit limb and its
 // glints cut that limb's window: placed through the blur it is still out
 // (2.7 px for a sinusoid of h0 = 0.1 mm, seed 1), and the radius's stated
