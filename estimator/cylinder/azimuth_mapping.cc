@@ -41,4 +41,19 @@ double ViewAngleRad(double azimuth_rad, const Projection& projection) {
   return -std::atan(r * std::sin(azimuth_rad) / (d - r * std::cos(azimuth_rad)));
 }
 
+AzimuthPerLimb AzimuthPerLimbPx(double azimuth_rad, double half_width_px,
+                                const Projection& projection) {
+  if (!(half_width_px > 0.0)) return {};
+  // du/dφ by a central difference, held away from the limb's zero.
+  const double limb = projection.VisibleLimbRad();
+  const double phi = std::clamp(azimuth_rad, -limb + 0.05, limb - 0.05);
+  const double h = 1e-5;
+  const double du_dphi = (OffsetFromAzimuth(phi + h, projection) -
+                          OffsetFromAzimuth(phi - h, projection)) / (2.0 * h);
+  if (!(du_dphi > 0.0)) return {};
+  const double u = OffsetFromAzimuth(azimuth_rad, projection);
+  return {-(1.0 - u) / (2.0 * half_width_px * du_dphi),
+          -(1.0 + u) / (2.0 * half_width_px * du_dphi)};
+}
+
 }  // namespace weavefit

@@ -30,6 +30,19 @@ double AzimuthFromOffset(double offset, const Projection& projection);
 // of tilt β is then φ + β = (α + v)/2.
 double ViewAngleRad(double azimuth_rad, const Projection& projection);
 
+// How the azimuth read at a surface point moves with the limbs it was mapped
+// through: ∂φ/∂(left limb column) and ∂φ/∂(right limb column), rad per px,
+// for a point at φ between limbs half_width_px apart. A column's offset is
+// u = (2x − L − R)/(R − L), so ∂u/∂R = −(1 + u)/(2·half) and ∂u/∂L =
+// −(1 − u)/(2·half); near a limb dφ/du grows as 1/cos φ (held at
+// cos φ = 0.05), so a limb's error moves the azimuths beside it most.
+struct AzimuthPerLimb {
+  double left = 0.0;
+  double right = 0.0;
+};
+AzimuthPerLimb AzimuthPerLimbPx(double azimuth_rad, double half_width_px,
+                                const Projection& projection);
+
 }  // namespace weavefit
 
 #endif  // WEAVEFIT_ESTIMATOR_CYLINDER_AZIMUTH_MAPPING_H_

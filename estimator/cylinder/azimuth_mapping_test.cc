@@ -131,5 +131,39 @@ TEST(ViewAngleTest, SignAndValueForLabGeometry) {
   EXPECT_NEAR(ViewAngleRad(limb, p), limb - M_PI / 2.0, 1e-12);
 }
 
+// Orthographic, x = c + H·sin φ with c = (L + R)/2, H = (R − L)/2: moving
+// the right limb by 1 px moves φ by −(1 + sin φ)/(2H·cos φ), the left by
+// −(1 − sin φ)/(2H·cos φ) (hand-differentiated).
+TEST(AzimuthPerLimbTest, OrthographicByHand) {
+  const double half = 200.0;
+  for (double deg : {-70.0, -20.0, 0.0, 35.0, 80.0}) {
+    const double phi = deg * kDeg;
+    const AzimuthPerLimb d = AzimuthPerLimbPx(phi, half, Orthographic());
+    EXPECT_NEAR(d.right, -(1.0 + std::sin(phi)) / (2.0 * half * std::cos(phi)), 1e-9) << deg;
+    EXPECT_NEAR(d.left, -(1.0 - std::sin(phi)) / (2.0 * half * std::cos(phi)), 1e-9) << deg;
+  }
+}
+
+// In perspective, against the column mapped again through moved limbs.
+TEST(AzimuthPerLimbTest, PerspectiveMatchesRemappedColumns) {
+  const Projection p = Perspective();
+  const double half = 250.0;
+  const double dx = 0.01;
+  for (double deg : {-75.0, -10.0, 40.0, 85.0}) {
+    const double phi = deg * kDeg;
+    const double x = half * (1.0 + OffsetFromAzimuth(phi, p));  // left limb at 0
+    // Limbs at l and r (centred differences of ±dx).
+    auto remapped = [&](double l, double r) {
+      return AzimuthFromOffset((2.0 * x - l - r) / (r - l), p);
+    };
+    const AzimuthPerLimb d = AzimuthPerLimbPx(phi, half, p);
+    const double r0 = 2.0 * half;
+    EXPECT_NEAR(d.right, (remapped(0.0, r0 + dx) - remapped(0.0, r0 - dx)) / (2.0 * dx),
+                1e-4 * std::fabs(d.right)) << deg;
+    EXPECT_NEAR(d.left, (remapped(dx, r0) - remapped(-dx, r0)) / (2.0 * dx),
+                1e-4 * std::fabs(d.left)) << deg;
+  }
+}
+
 }  // namespace
 }  // namespace weavefit

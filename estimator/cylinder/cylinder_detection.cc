@@ -188,9 +188,9 @@ constexpr double kSoftEdgePx = 2.5;
 constexpr double kSeenShadowSigmas = 10.0;
 constexpr double kSeenShadowShare = 0.1;
 
-// Standard error of the radius from the two limb lines: each line's own
-// scatter and its systematic allowance, halved (the radius is half the
-// distance between the limbs); the allowances' share apart.
+// Standard errors of the radius and of each limb from the two limb lines:
+// each line's own scatter and its systematic allowance (halved for the
+// radius, half the distance between the limbs); the allowances' share apart.
 void SetRadiusStderr(const Line& left, double left_systematic, const Line& right,
                      double right_systematic, CylinderGeometry* g) {
   const double systematic2 =
@@ -199,6 +199,10 @@ void SetRadiusStderr(const Line& left, double left_systematic, const Line& right
                                         right.at_center_stderr * right.at_center_stderr +
                                         systematic2);
   g->radius_systematic_px = 0.5 * std::sqrt(systematic2);
+  g->left_limb_stderr_px = std::hypot(left.at_center_stderr, left_systematic);
+  g->right_limb_stderr_px = std::hypot(right.at_center_stderr, right_systematic);
+  g->left_limb_systematic_px = left_systematic;
+  g->right_limb_systematic_px = right_systematic;
 }
 
 // The pixels RefineEdge fits for one band's limb: from two outside the first

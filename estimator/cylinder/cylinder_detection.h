@@ -40,6 +40,13 @@ struct CylinderGeometry {
   // The allowances' share of radius_stderr_px (the rest is the lines'
   // scatter): repeated photographs of one set-up share it.
   double radius_systematic_px = 0.0;
+  // The same for each limb's column at the reference row: the azimuths read
+  // beside a limb move with it most (AzimuthPerLimbPx), so the peaks'
+  // spacing and the mirror azimuth take their errors from these.
+  double left_limb_stderr_px = 0.0;
+  double right_limb_stderr_px = 0.0;
+  double left_limb_systematic_px = 0.0;
+  double right_limb_systematic_px = 0.0;
   // The lens blur (Gaussian σ, px) the limbs were fitted through, and one
   // the limb in shadow proposed that was not used (0 when none; its
   // allowance is then in radius_stderr_px).
