@@ -20,6 +20,13 @@ struct ProfileFitOptions {
   // in quadrature with the fitted blur, to the model: set it to about half a
   // thread period when the lobe is a comb of glints (0 = none).
   double smoothing_rad = 0.0;
+  // The lens PSF (Gaussian σ, px; CylinderGeometry::lens_blur_px) and the
+  // limbs' half-width (px) that turn pixels into azimuth: with a half-width,
+  // the PSF and the pixel's footprint blur the model by their width in
+  // azimuth at each bin, 1/cos φ times their width at the middle
+  // (orthographic). A half-width of 0: a blur constant in azimuth only.
+  double lens_blur_px = 0.0;
+  double half_width_px = 0.0;
   // The fitted window reaches this far beyond the starting caustics (rad).
   double margin_rad = 6.0 * 3.14159265358979323846 / 180.0;
   int max_iterations = 100;
