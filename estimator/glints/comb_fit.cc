@@ -24,6 +24,9 @@ namespace {
 constexpr int kShared = 5;
 constexpr int kOwn = 4;
 constexpr double kPsfFloorPx = 0.1;
+// The lens blur (σ, px) the limbs must show for the PSF to place each glint
+// within its pixel (InPixelPsfKernel).
+constexpr double kInPixelFromBlurPx = 1.0;
 // Sub-intervals per bin at most (BinMean's node arrays).
 constexpr int kMaxPieces = 32;
 // Sub-intervals per bin of the main solve at most (the polish takes all).
@@ -54,15 +57,35 @@ struct Row {
   std::vector<double> node_lhs;  // φ − (α + v(φ))/2 (rad)
 };
 
+// One part of a bin's mean: the share of its sub-intervals (or, after the
+// extrapolation below, of a pair of them) and its gradient, placed at their
+// middle: what the lens PSF needs to blur a glint from where it lies in its
+// pixel (RowShape).
+struct BinPart {
+  double value = 0.0;
+  double grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+};
+
+// The number of parts BinMean gives a bin: its sub-intervals, or their pairs
+// where it extrapolates.
+int PartsPerBin(int pieces, int stride) {
+  const int segments = pieces / stride;
+  const bool pairs = stride == 1 && segments % 2 == 0 && segments > 1;
+  return pairs ? segments / 2 : segments;
+}
+
 // Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
 // Gaussian, miss g = lhs − δ − arctan(m·cos(k(s + c))), and its gradient by
 // m, λ, ln σ, c and δ. Along each sub-interval the miss is taken as linear, so
 // the Gaussian integrates to a difference of error functions. A bin whose
 // nodes all lie 8σ beyond the mirror on one side adds nothing (most bins:
 // the glints are far narrower than a pixel). Every `stride`-th node only
-// (stride divides pieces) gives a coarser, cheaper sum.
+// (stride divides pieces) gives a coarser, cheaper sum. With `parts`
+// non-null (PartsPerBin of them, zeroed), also the mean in parts, in column
+// order.
 double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m, double lambda,
-               double delta, double sigma, double c, double grad[5]) {
+               double delta, double sigma, double c, double grad[5],
+               BinPart* parts = nullptr) {
   grad[0] = grad[1] = grad[2] = grad[3] = grad[4] = 0.0;
   const double k = 2.0 * M_PI / lambda;
   const double width = bin.piece * stride;
@@ -127,7 +150,7 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
   // One sub-interval from node a to node b, `span` pieces wide: the
   // Gaussian over the miss taken as linear between the two nodes, times
   // sec β at its middle, into *total and its gradient into g5.
-  auto segment = [&](int a, int b, double span, double* total, double g5[5]) {
+  auto segment = [&](int a, int b, double span, double* total, double g5[5], BinPart* part) {
     if ((g[a] > 8.0 * sigma && g[b] > 8.0 * sigma) || (g[a] < -8.0 * sigma && g[b] < -8.0 * sigma)) {
       return;
     }
@@ -149,16 +172,27 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
       d_ga = d_gb = -0.5 * f * z / sigma * span;
       d_log_sigma = f * (z * z - 1.0) * span;
     }
-    *total += sec * piece;
+    double d5[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
     for (int p = 0; p < 3; ++p) {
       const double d_hmid = 0.5 * (dh[a][p] + dh[b][p]);
-      g5[p == 2 ? 3 : p] += sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
+      d5[p == 2 ? 3 : p] = sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
     }
-    g5[2] += sec * d_log_sigma;
-    g5[4] -= sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
+    d5[2] = sec * d_log_sigma;
+    d5[4] = -sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
+    *total += sec * piece;
+    for (int p = 0; p < 5; ++p) g5[p] += d5[p];
+    if (part != nullptr) {
+      part->value += sec * piece;
+      for (int p = 0; p < 5; ++p) part->grad[p] += d5[p];
+    }
   };
+  // Each sub-interval's share, for the parts (the pairs' shares combined
+  // below when the sum is extrapolated).
+  BinPart fine[kMaxPieces];
   double sum = 0.0;
-  for (int n = 1; n < nodes; ++n) segment(n - 1, n, width, &sum, grad);
+  for (int n = 1; n < nodes; ++n) {
+    segment(n - 1, n, width, &sum, grad, parts != nullptr ? &fine[n - 1] : nullptr);
+  }
   // The linear miss falls short where it bends most, at the caustics (the
   // glints' turning points, which set m): the sum's error goes as the
   // square of the sub-interval, so the sum over pairs of sub-intervals,
@@ -170,21 +204,55 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
   if (stride == 1 && (nodes - 1) % 2 == 0 && nodes > 2) {
     double coarse = 0.0;
     double coarse_grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
-    for (int n = 2; n < nodes; n += 2) segment(n - 2, n, 2.0 * width, &coarse, coarse_grad);
+    for (int n = 2; n < nodes; n += 2) {
+      BinPart pair;
+      segment(n - 2, n, 2.0 * width, &coarse, coarse_grad, parts != nullptr ? &pair : nullptr);
+      if (parts == nullptr) continue;
+      BinPart& out = parts[n / 2 - 1];
+      out.value = bin.weight * (4.0 * (fine[n - 2].value + fine[n - 1].value) - pair.value) / 3.0;
+      for (int p = 0; p < 5; ++p) {
+        out.grad[p] =
+            bin.weight * (4.0 * (fine[n - 2].grad[p] + fine[n - 1].grad[p]) - pair.grad[p]) / 3.0;
+      }
+    }
     sum = (4.0 * sum - coarse) / 3.0;
     for (int p = 0; p < 5; ++p) grad[p] = (4.0 * grad[p] - coarse_grad[p]) / 3.0;
+  } else if (parts != nullptr) {
+    for (int n = 0; n + 1 < nodes; ++n) {
+      parts[n].value = bin.weight * fine[n].value;
+      for (int p = 0; p < 5; ++p) parts[n].grad[p] = bin.weight * fine[n].grad[p];
+    }
   }
   for (int p = 0; p < 5; ++p) grad[p] *= bin.weight;
   return sum * bin.weight;
 }
 
-// The lens PSF over a row's bins: a Gaussian of σ_bins sampled at whole bins
-// and normalised, with its derivative by ln σ_bins.
+// The lens PSF over a row's bins, two ways. Sampled: a Gaussian of σ_bins
+// at whole bins, normalised, each bin's light taken from its middle. In
+// pixel: a bin's value is its footprint's mean of the image blurred by a
+// Gaussian of σ_bins, so light at u bins from the middle of a bin gives it
+// K(u) = Φ((½ − u)/σ) − Φ((−½ − u)/σ), tabulated for the parts of a bin t
+// bins away (t + the part's middle: index (t + reach)·parts + part). Both
+// with the derivative by ln σ_bins.
+//
+// Sampled, a blur of a bin or more placed every glint at its pixel's middle:
+// through a 1-2 px lens blur the spacing read 0.2-0.65° short at 4-10
+// stated errors (640×480, m = 0.31). In pixel, the sub-pixel PSF
+// trades with the source blur: where the limbs see 0.8 px (the cylinder-ends
+// fixture, 320×240) 4 of 12 noise draws slid to no source blur and fell back
+// to peak picking, one read 7 errors short, where sampled all 12 were
+// right; from a 1 px blur both kernels mostly leave that scene's comb
+// unfitted (peak picking answers, within its errors). So the glints are
+// placed in their pixels only where the limbs show a blur of a pixel or
+// more (FitGlintComb): between 0.8 and 1 px the sampled kernel still reads
+// the default scene's spacing 2.6-5 errors short.
 struct Kernel {
   int reach = 0;
-  std::vector<double> w, dw;  // index t + reach
+  int parts = 1;
+  std::vector<double> w, dw;
 };
-Kernel PsfKernel(double sigma_bins) {
+
+Kernel SampledPsfKernel(double sigma_bins) {
   Kernel k;
   k.reach = std::clamp(static_cast<int>(std::ceil(4.0 * sigma_bins)), 1, 24);
   const int n = 2 * k.reach + 1;
@@ -207,6 +275,29 @@ Kernel PsfKernel(double sigma_bins) {
   return k;
 }
 
+Kernel InPixelPsfKernel(double sigma_bins, int parts) {
+  Kernel k;
+  k.reach = std::clamp(static_cast<int>(std::ceil(4.0 * sigma_bins + 0.5)), 1, 25);
+  k.parts = parts;
+  const int n = (2 * k.reach + 1) * parts;
+  k.w.resize(n);
+  k.dw.resize(n);
+  const double s = sigma_bins;
+  auto pdf = [](double z) { return 0.3989422804014327 * std::exp(-0.5 * z * z); };
+  auto cdf = [](double z) { return 0.5 * std::erfc(-z * M_SQRT1_2); };
+  for (int t = -k.reach; t <= k.reach; ++t) {
+    for (int q = 0; q < parts; ++q) {
+      const double u = t + (q + 0.5) / parts - 0.5;
+      const double a = (0.5 - u) / s;
+      const double b = (-0.5 - u) / s;
+      const int i = (t + k.reach) * parts + q;
+      k.w[i] = cdf(a) - cdf(b);
+      k.dw[i] = -a * pdf(a) + b * pdf(b);
+    }
+  }
+  return k;
+}
+
 // Everything the model needs but the row's level and baseline.
 struct Shared {
   double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_q = 0.0;
@@ -216,29 +307,62 @@ struct Shared {
 // The row's modelled glint shape per bin (before level and baseline): bin
 // means blurred by the PSF; with `grad` non-null, also the derivatives by
 // m, λ, ln σ, c, δ and q (six per bin).
-std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px, const Shared& p,
-                             double c, std::vector<std::array<double, 6>>* grad) {
+std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px, bool in_pixel,
+                             const Shared& p, double c,
+                             std::vector<std::array<double, 6>>* grad) {
   const int n = static_cast<int>(row.bins.size());
-  std::vector<double> raw(n);
-  std::vector<std::array<double, 5>> raw_grad(n);
   const double sigma = std::exp(p.log_sigma);
-  for (int j = 0; j < n; ++j) {
-    raw[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, p.delta, sigma, c,
-                     raw_grad[j].data());
-  }
   const double psf_px = p.PsfPx();
-  const Kernel kernel = PsfKernel(psf_px / bin_px);
   const double dlog_dq = p.psf_q / (psf_px * psf_px);
   std::vector<double> out(n, 0.0);
   if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
+  if (!in_pixel) {
+    std::vector<double> raw(n);
+    std::vector<std::array<double, 5>> raw_grad(n);
+    for (int j = 0; j < n; ++j) {
+      raw[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, p.delta, sigma, c,
+                       raw_grad[j].data());
+    }
+    const Kernel kernel = SampledPsfKernel(psf_px / bin_px);
+    for (int j = 0; j < n; ++j) {
+      for (int t = -kernel.reach; t <= kernel.reach; ++t) {
+        const int at = std::clamp(j + t, 0, n - 1);
+        const double w = kernel.w[t + kernel.reach];
+        out[j] += w * raw[at];
+        if (grad != nullptr) {
+          for (int q = 0; q < 5; ++q) (*grad)[j][q] += w * raw_grad[at][q];
+          (*grad)[j][5] += kernel.dw[t + kernel.reach] * dlog_dq * raw[at];
+        }
+      }
+    }
+    return out;
+  }
+  const int per_bin = PartsPerBin(pieces, stride);
+  std::vector<BinPart> parts(static_cast<std::size_t>(n) * per_bin);
+  std::vector<char> lit(n, 0);
+  double unused[5];
   for (int j = 0; j < n; ++j) {
-    for (int t = -kernel.reach; t <= kernel.reach; ++t) {
-      const int at = std::clamp(j + t, 0, n - 1);
-      const double w = kernel.w[t + kernel.reach];
-      out[j] += w * raw[at];
-      if (grad != nullptr) {
-        for (int q = 0; q < 5; ++q) (*grad)[j][q] += w * raw_grad[at][q];
-        (*grad)[j][5] += kernel.dw[t + kernel.reach] * dlog_dq * raw[at];
+    BinPart* at = &parts[static_cast<std::size_t>(j) * per_bin];
+    lit[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, p.delta, sigma, c, unused,
+                     at) != 0.0;
+  }
+  const Kernel kernel = InPixelPsfKernel(psf_px / bin_px, per_bin);
+  // Each lit bin's parts spread to the bins around it (light beyond the
+  // row's ends is lost: the rows reach well past the lobe).
+  for (int i = 0; i < n; ++i) {
+    if (!lit[i]) continue;
+    for (int q = 0; q < per_bin; ++q) {
+      const BinPart& part = parts[static_cast<std::size_t>(i) * per_bin + q];
+      for (int t = -kernel.reach; t <= kernel.reach; ++t) {
+        const int j = i - t;
+        if (j < 0 || j >= n) continue;
+        const int at = (t + kernel.reach) * per_bin + q;
+        const double w = kernel.w[at];
+        out[j] += w * part.value;
+        if (grad != nullptr) {
+          for (int k = 0; k < 5; ++k) (*grad)[j][k] += w * part.grad[k];
+          (*grad)[j][5] += kernel.dw[at] * dlog_dq * part.value;
+        }
       }
     }
   }
@@ -249,8 +373,10 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
 // (m, λ, δ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
 class RowCost : public ceres::CostFunction {
  public:
-  RowCost(const Row* row, int pieces, int bin_px, double inv_scale, const int* stride)
-      : row_(row), pieces_(pieces), bin_px_(bin_px), inv_scale_(inv_scale), stride_(stride) {
+  RowCost(const Row* row, int pieces, int bin_px, bool in_pixel, double inv_scale,
+          const int* stride)
+      : row_(row), pieces_(pieces), bin_px_(bin_px), in_pixel_(in_pixel), inv_scale_(inv_scale),
+        stride_(stride) {
     set_num_residuals(static_cast<int>(row->bins.size()));
     mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
   }
@@ -267,7 +393,8 @@ class RowCost : public ceres::CostFunction {
     if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma)) return false;
     std::vector<std::array<double, 6>> grad;
     const std::vector<double> shape =
-        RowShape(*row_, pieces_, *stride_, bin_px_, p, own[0], jacobians != nullptr ? &grad : nullptr);
+        RowShape(*row_, pieces_, *stride_, bin_px_, in_pixel_, p, own[0],
+                 jacobians != nullptr ? &grad : nullptr);
     const int n = static_cast<int>(shape.size());
     for (int j = 0; j < n; ++j) {
       const Bin& b = row_->bins[j];
@@ -300,6 +427,7 @@ class RowCost : public ceres::CostFunction {
   const Row* row_;
   int pieces_;
   int bin_px_;
+  bool in_pixel_;
   double inv_scale_;
   const int* stride_;  // the fit's current stride (coarse while starting)
 };
@@ -423,6 +551,9 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
     return absl::InvalidArgumentError("comb fit: one pixel signal per chosen row is needed");
   }
   const int bin_px = pixels.bin_px;
+  // Glints placed within their pixels only where the limbs show a lens blur
+  // of a pixel or more (the kernels, above).
+  const bool in_pixel = model.lens_blur_px >= kInPixelFromBlurPx;
   const double radius_mm = model.projection.radius_mm;
   const double radius_px = pixels.radius_px;
   auto azimuth = [&](double offset_px) {
@@ -513,7 +644,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   auto total_rss = [&](const Shared& trial, std::vector<std::array<double, kOwn>>* out) {
     double rss = 0.0;
     for (std::size_t i = 0; i < rows.size(); ++i) {
-      rss += SolveLinear(rows[i], RowShape(rows[i], pieces, coarse, bin_px, trial, (*out)[i][0], nullptr),
+      rss += SolveLinear(rows[i], RowShape(rows[i], pieces, coarse, bin_px, in_pixel, trial, (*out)[i][0], nullptr),
                          (*out)[i].data());
     }
     return rss;
@@ -527,7 +658,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
         std::array<double, kOwn> trial = own[i];
         trial[0] = own[i][0] + d * step;
         const double rss = SolveLinear(
-            rows[i], RowShape(rows[i], pieces, coarse, bin_px, p, trial[0], nullptr), trial.data());
+            rows[i], RowShape(rows[i], pieces, coarse, bin_px, in_pixel, p, trial[0], nullptr), trial.data());
         if (best < 0.0 || rss < best) {
           best = rss;
           keep = trial;
@@ -573,7 +704,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   // smaller than the pixel noise averaged over a bin.
   std::vector<double> abs_res;
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    const std::vector<double> shape = RowShape(rows[i], pieces, 1, bin_px, p, own[i][0], nullptr);
+    const std::vector<double> shape = RowShape(rows[i], pieces, 1, bin_px, in_pixel, p, own[i][0], nullptr);
     for (std::size_t j = 0; j < rows[i].bins.size(); ++j) {
       const Bin& b = rows[i].bins[j];
       if (!b.valid) continue;
@@ -590,7 +721,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   ceres::Problem problem;
   int num_residuals = 0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    problem.AddResidualBlock(new RowCost(&rows[i], pieces, bin_px, 1.0 / scale, &stride), nullptr,
+    problem.AddResidualBlock(new RowCost(&rows[i], pieces, bin_px, in_pixel, 1.0 / scale, &stride), nullptr,
                              shared, &log_sigma, &psf_q, own[i].data());
     for (const Bin& b : rows[i].bins) num_residuals += b.valid;
   }
@@ -717,7 +848,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   // period), and the chi-square against the scale.
   double rss = 0.0, base = 0.0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    const std::vector<double> shape = RowShape(rows[i], pieces, 1, bin_px, p, own[i][0], nullptr);
+    const std::vector<double> shape = RowShape(rows[i], pieces, 1, bin_px, in_pixel, p, own[i][0], nullptr);
     std::array<double, kOwn> flat = own[i];
     base += SolveLinear(rows[i], std::vector<double>(shape.size(), 0.0), flat.data());
     for (std::size_t j = 0; j < rows[i].bins.size(); ++j) {

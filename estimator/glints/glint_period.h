@@ -79,6 +79,7 @@ struct GlintModel {
   Projection projection;         // for v(φ) and the arc radius
   double mm_per_px = 0.0;        // arc length per pixel at the axis
   double pixel_noise = 0.0;      // one pixel's noise sigma, linear units
+  double lens_blur_px = 0.0;     // the lens blur the limbs show (σ, px; 0: none)
 };
 
 absl::StatusOr<GlintPeriodResult> EstimateGlintPeriod(const ArcSignals& signals,

@@ -421,6 +421,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   model.projection = projection;
   model.mm_per_px = projection.radius_mm / cylinder.radius_px;
   model.pixel_noise = pixel_noise;
+  model.lens_blur_px = cylinder.lens_blur_px;
   absl::StatusOr<GlintPeriodResult> period =
       signals.ok() ? EstimateGlintPeriod(*signals, model, options.glints)
                    : absl::StatusOr<GlintPeriodResult>(signals.status());
