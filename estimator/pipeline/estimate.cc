@@ -677,8 +677,8 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
           (f.bic - best_bic) / correlated >= kOverturnBicPerBin) {
         estimate->warnings.push_back(absl::StrFormat(
             "accurate mode: the least-squares fits overturn peak picking's %s: %s explains "
-            "the profile with a BIC %.1f times lower (%.0f per correlated bin), through the "
-            "lens blur the limbs show (%.2f px)",
+            "the profile with a BIC %.1f times lower (%.0f per correlated bin; the models "
+            "seen through the lens blur the limbs show, %.2f px)",
             ProfileModelName(picked), ProfileModelName(fitted), f.bic / best_bic,
             (f.bic - best_bic) / correlated, estimate->cylinder.lens_blur_px));
         overturned = true;
