@@ -532,6 +532,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
 // both (FitModels).
 constexpr double kOverturnBicRatio = 3.0;
 constexpr double kOverturnBicPerBin = 100.0;
+// The lens blur (σ, px) the limbs must show for `balanced` to fit the models
+// to the profile too.
+constexpr double kFitsFromLensBlurPx = 1.0;
 
 // `accurate` mode: least-squares fits of every candidate model to the
 // profile (smoothed as peak picking found necessary), the lowest BIC wins.
@@ -676,7 +679,7 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
       if (f.bic >= kOverturnBicRatio * best_bic &&
           (f.bic - best_bic) / correlated >= kOverturnBicPerBin) {
         estimate->warnings.push_back(absl::StrFormat(
-            "accurate mode: the least-squares fits overturn peak picking's %s: %s explains "
+            "profile fits: the least-squares fits overturn peak picking's %s: %s explains "
             "the profile with a BIC %.1f times lower (%.0f per correlated bin; the models "
             "seen through the lens blur the limbs show, %.2f px)",
             ProfileModelName(picked), ProfileModelName(fitted), f.bic / best_bic,
@@ -688,7 +691,7 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
   }
   if (fitted != picked && !overturned) {
     estimate->warnings.push_back(absl::StrCat(
-        "accurate mode: the least-squares fits prefer ", ProfileModelName(fitted),
+        "profile fits: the least-squares fits prefer ", ProfileModelName(fitted),
         " to peak picking's ", ProfileModelName(picked),
         "; on a profile this is not strong enough evidence, so peak picking's reading is kept"));
     return;
@@ -726,7 +729,7 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
     }
   }
   estimate->warnings.push_back(
-      "accurate mode: the models were fitted by least squares and the lowest "
+      "profile fits: the models were fitted by least squares and the lowest "
       "BIC chosen; on a comb of glints the errors are peak picking's, which "
       "count the comb");
 }
@@ -819,7 +822,13 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
         " saturated pixels on the cylinder were left out of the profile; "
         "lower the exposure if they fall on the peaks"));
   }
-  if (options.mode == Mode::kAccurate) {
+  // `accurate` fits the models to the profile always; `balanced` where the
+  // limbs show a lens blur of a pixel or more, which widens each caustic by
+  // its own width in azimuth (1/cos φ) where peak picking sees one blur:
+  // through a 2 px blur it called 3 sawtooths of 40 sinusoids, which the fits
+  // turn (FitModels; about 150 ms).
+  if (options.mode == Mode::kAccurate ||
+      (options.mode == Mode::kBalanced && cylinder->lens_blur_px >= kFitsFromLensBlurPx)) {
     FitModels(*peaks, acquisition, options, &estimate);
     if (absl::Status s = clock.Lap("fit"); !s.ok()) return s;
   }
