@@ -41,15 +41,18 @@ double ViewAngleRad(double azimuth_rad, const Projection& projection) {
   return -std::atan(r * std::sin(azimuth_rad) / (d - r * std::cos(azimuth_rad)));
 }
 
+double OffsetPerRadian(double azimuth_rad, const Projection& projection) {
+  const double limb = projection.VisibleLimbRad() - 0.05;
+  const double phi = std::clamp(azimuth_rad, -limb, limb);
+  const double h = 1e-5;
+  return (OffsetFromAzimuth(phi + h, projection) - OffsetFromAzimuth(phi - h, projection)) /
+         (2.0 * h);
+}
+
 AzimuthPerLimb AzimuthPerLimbPx(double azimuth_rad, double half_width_px,
                                 const Projection& projection) {
   if (!(half_width_px > 0.0)) return {};
-  // du/dφ by a central difference, held away from the limb's zero.
-  const double limb = projection.VisibleLimbRad();
-  const double phi = std::clamp(azimuth_rad, -limb + 0.05, limb - 0.05);
-  const double h = 1e-5;
-  const double du_dphi = (OffsetFromAzimuth(phi + h, projection) -
-                          OffsetFromAzimuth(phi - h, projection)) / (2.0 * h);
+  const double du_dphi = OffsetPerRadian(azimuth_rad, projection);
   if (!(du_dphi > 0.0)) return {};
   const double u = OffsetFromAzimuth(azimuth_rad, projection);
   return {-(1.0 - u) / (2.0 * half_width_px * du_dphi),

@@ -30,6 +30,11 @@ double AzimuthFromOffset(double offset, const Projection& projection);
 // of tilt β is then φ + β = (α + v)/2.
 double ViewAngleRad(double azimuth_rad, const Projection& projection);
 
+// du/dφ, the offset's rate (OffsetFromAzimuth) per radian of azimuth, by a
+// central difference, with φ held 0.05 rad inside the visible limb, where
+// it falls to zero: what one pixel spans in azimuth, 1/(half-width·du/dφ).
+double OffsetPerRadian(double azimuth_rad, const Projection& projection);
+
 // How the azimuth read at a surface point moves with the limbs it was mapped
 // through: ∂φ/∂(left limb column) and ∂φ/∂(right limb column), rad per px,
 // for a point at φ between limbs half_width_px apart. A column's offset is

@@ -133,11 +133,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   auto fixed_blur_of = [&](double phi) {
     double lens2 = 0.0;
     if (options.half_width_px > 0.0) {
-      const double h = 1e-5;
-      const double limb = projection.VisibleLimbRad() - 0.05;
-      const double at = std::clamp(phi, -limb, limb);
-      const double du = (OffsetFromAzimuth(at + h, projection) -
-                         OffsetFromAzimuth(at - h, projection)) / (2.0 * h);
+      const double du = OffsetPerRadian(phi, projection);
       const double rad_per_px = 1.0 / (options.half_width_px * std::max(du, 1e-3));
       lens2 = px2 * rad_per_px * rad_per_px;
     }

@@ -66,12 +66,18 @@ struct BinPart {
   double grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
 };
 
+// Whether BinMean extrapolates its sum from pairs of sub-intervals: at full
+// resolution, over an even number of them (below).
+bool ExtrapolatesPairs(int pieces, int stride) {
+  const int segments = pieces / stride;
+  return stride == 1 && segments % 2 == 0 && segments > 1;
+}
+
 // The number of parts BinMean gives a bin: its sub-intervals, or their pairs
 // where it extrapolates.
 int PartsPerBin(int pieces, int stride) {
   const int segments = pieces / stride;
-  const bool pairs = stride == 1 && segments % 2 == 0 && segments > 1;
-  return pairs ? segments / 2 : segments;
+  return ExtrapolatesPairs(pieces, stride) ? segments / 2 : segments;
 }
 
 // Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
@@ -201,7 +207,7 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
   // 0.079 % long with 8 sub-intervals, 0.011 % with 64. Only at full
   // resolution (the polish): the main solve on every other node stays as
   // it was, so that a polish that slides off it still shows (FitGlintComb).
-  if (stride == 1 && (nodes - 1) % 2 == 0 && nodes > 2) {
+  if (ExtrapolatesPairs(pieces, stride)) {
     double coarse = 0.0;
     double coarse_grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
     for (int n = 2; n < nodes; n += 2) {

@@ -536,6 +536,18 @@ constexpr double kOverturnBicPerBin = 100.0;
 // to the profile too.
 constexpr double kFitsFromLensBlurPx = 1.0;
 
+// The profile fits' options: the profile smoothed as peak picking read it,
+// the model seen through the lens blur the limbs show.
+ProfileFitOptions FitOptionsFor(const PeakPickingResult& peaks, const EstimateOptions& options,
+                                const CylinderGeometry& cylinder) {
+  ProfileFitOptions fit_options;
+  fit_options.smoothing_rad = peaks.smoothing_rad;
+  fit_options.max_iterations = options.fit_max_iterations;
+  fit_options.lens_blur_px = cylinder.lens_blur_px;
+  fit_options.half_width_px = cylinder.radius_px / std::cos(cylinder.axis_angle_rad);
+  return fit_options;
+}
+
 // `accurate` mode: least-squares fits of every candidate model to the
 // profile (smoothed as peak picking found necessary), the lowest BIC wins.
 // The curves of a fit plot (EstimateOptions::include_curves): the profile
@@ -551,12 +563,7 @@ void AddCurves(const PeakPickingResult& peaks, const Acquisition& acquisition,
   smoothed.azimuth_rad = profile.azimuth_rad;
   smoothed.value = Smooth(profile.mean, peaks.smoothing_rad / std::max(profile.bin_width_rad, 1e-9));
   estimate->curves.push_back(std::move(smoothed));
-  ProfileFitOptions fit_options;
-  fit_options.smoothing_rad = peaks.smoothing_rad;
-  fit_options.max_iterations = options.fit_max_iterations;
-  fit_options.lens_blur_px = estimate->cylinder.lens_blur_px;
-  fit_options.half_width_px =
-      estimate->cylinder.radius_px / std::cos(estimate->cylinder.axis_angle_rad);
+  const ProfileFitOptions fit_options = FitOptionsFor(peaks, options, estimate->cylinder);
   const double start = estimate->max_slope.resolved ? estimate->max_slope.value
                                                      : (peaks.split_resolved ? peaks.max_slope : 0.2);
   absl::StatusOr<ProfileFitResult> fits = FitProfileModels(
@@ -571,12 +578,13 @@ void AddCurves(const PeakPickingResult& peaks, const Acquisition& acquisition,
 
 void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
                const EstimateOptions& options, Estimate* estimate) {
-  ProfileFitOptions fit_options;
-  fit_options.smoothing_rad = peaks.smoothing_rad;
-  fit_options.max_iterations = options.fit_max_iterations;
-  fit_options.lens_blur_px = estimate->cylinder.lens_blur_px;
-  fit_options.half_width_px =
-      estimate->cylinder.radius_px / std::cos(estimate->cylinder.axis_angle_rad);
+  const ProfileFitOptions fit_options = FitOptionsFor(peaks, options, estimate->cylinder);
+  // The number of bins the smoothing correlates (2√π·σ/bin): the fits run
+  // on the smoothed profile, whose residuals are not independent, so the
+  // plain BIC overstates the evidence by that factor.
+  const double correlated = std::max(
+      1.0, 2.0 * std::sqrt(M_PI) * peaks.smoothing_rad /
+               std::max(estimate->profile.bin_width_rad, 1e-9));
   // Starting slopes: peak picking's, and those of the nearest model shapes
   // in the FLANN bank (estimator/init), which are also reported as
   // candidates. Per model the fit with the lowest BIC over the starts is kept.
@@ -626,12 +634,7 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
     // The fits overturn peak picking's split model (judged from the glints
     // and the level between the peaks) only on strong evidence: a BIC lower
     // by more than 10 after dividing the difference by the number of bins
-    // the smoothing correlates (2√π·σ/bin: the fit runs on the smoothed
-    // profile, whose residuals are not independent, so the plain BIC
-    // overstates the evidence by that factor).
-    const double correlated = std::max(
-        1.0, 2.0 * std::sqrt(M_PI) * peaks.smoothing_rad /
-                 std::max(estimate->profile.bin_width_rad, 1e-9));
+    // the smoothing correlates (`correlated`).
     if (fits->best >= 0 && peaks.split_resolved && peaks.model != ProfileModel::kSmooth) {
       for (std::size_t i = 0; i < fits->fits.size(); ++i) {
         const ModelFit& f = fits->fits[i];
@@ -670,9 +673,6 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
   const ProfileModel fitted = fits->fits[fits->best].model;
   bool overturned = false;
   if (fitted != picked && fitted != ProfileModel::kSmooth && picked != ProfileModel::kSmooth) {
-    const double correlated = std::max(
-        1.0, 2.0 * std::sqrt(M_PI) * peaks.smoothing_rad /
-                 std::max(estimate->profile.bin_width_rad, 1e-9));
     for (const ModelFit& f : fits->fits) {
       if (f.model != picked || !f.converged) continue;
       const double best_bic = fits->fits[fits->best].bic;
