@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_format.h"
 #include "estimator/cylinder/azimuth_mapping.h"
+#include "estimator/stats/cluster_covariance.h"
 #include "estimator/stats/median.h"
 
 namespace weavefit {
@@ -868,13 +869,16 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   const int dof = std::max(num_residuals - kShared - kOwn * static_cast<int>(rows.size()), 1);
   result.reduced_chi2 = rss / (scale * scale) / dof;
 
-  // Standard errors: cluster-robust over threads (a jackknife, below).
-  // The residuals of one row are correlated (the glints' shapes are not
-  // exactly the model's) and the rows of one thread share its phase, so
-  // the plain covariance, even scaled by the reduced chi-square, is far too
-  // small. Each row's own parameters are profiled out of its Jacobian; how
-  // far the shared parameters move when one thread is left out then
-  // measures the error the data actually show.
+  // Standard errors: cluster-robust over threads (CR2, below). The
+  // residuals of one row are correlated (the glints' shapes are not exactly
+  // the model's) and the rows of one thread share its phase, so the plain
+  // covariance, even scaled by the reduced chi-square, is far too small.
+  // Each row's own parameters are profiled out of its Jacobian; the
+  // threads' own scores then measure the error the data actually show.
+  // Over 16 noise draws of each of the 21 comb-fitted fixtures the spacing
+  // spread 0.71-1.74 times the errors so stated (19 within a factor 1.5),
+  // against 0.47-1.64 times the delete-one-thread jackknife's (17 within;
+  // its error ranged over 9 times from draw to draw of one scene).
   ceres::Problem::EvaluateOptions eval;
   eval.parameter_blocks = {shared, &log_sigma, &psf_q};
   for (auto& o : own) eval.parameter_blocks.push_back(o.data());
@@ -918,25 +922,9 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
     hessian += jt.transpose() * jt;
     at += count;
   }
-  // The delete-one-thread jackknife of the shared parameters, one Gauss-
-  // Newton step from the solution per thread: without thread g they move by
-  // (H − H_g)⁻¹·s_g. The sandwich H⁻¹·(Σ s_g s_gᵀ)·H⁻¹ is its first-order
-  // form (H − H_g ≈ H) and comes out short when a few threads carry most of
-  // the information on m, as the caustics' do: over 64 noise draws of the
-  // coarse gauze at 10°, 60° and −110° the spacing spread 1.42, 1.27 and 1.26
-  // times the sandwich's error, 1.09, 0.89 and 0.73 times the jackknife's
-  // (the wavelength 0.90, 1.49, 1.80 and 0.84, 1.34, 1.33 times).
-  const double clusters = static_cast<double>(score.size());
-  std::vector<Vec> shift(score.size());
-  Vec mean_shift = Vec::Zero();
-  for (std::size_t g = 0; g < score.size(); ++g) {
-    shift[g] = (hessian - cluster_hessian[g]).completeOrthogonalDecomposition().solve(score[g]);
-    mean_shift += shift[g];
-  }
-  mean_shift /= clusters;
-  Mat cov = Mat::Zero();
-  for (const Vec& d : shift) cov += (d - mean_shift) * (d - mean_shift).transpose();
-  cov *= (clusters - 1.0) / std::max(clusters, 1.0);
+  // Their covariance from the threads' scores, each scaled by how much of
+  // the information its own thread carries (ClusterRobustCovariance).
+  const Mat cov = ClusterRobustCovariance(hessian, cluster_hessian, score);
   result.max_slope_stderr = std::sqrt(std::max(cov(0, 0), 0.0));
   result.wavelength_stderr_mm = std::sqrt(std::max(cov(1, 1), 0.0));
   result.mirror_offset_stderr_rad = std::sqrt(std::max(cov(2, 2), 0.0));
