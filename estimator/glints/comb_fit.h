@@ -114,8 +114,9 @@ absl::StatusOr<CombRows> ChooseCombRows(const ArcSignals& signals, const GlintMo
 // margin), starting from model.max_slope and `wavelength_mm` (the glint
 // period's). Each bin is modelled as the exact average over its footprint.
 // The standard errors are cluster-robust over threads (rows of one thread
-// share its phase and their residuals are correlated): a delete-one-thread
-// jackknife, not the plain covariance. INVALID_ARGUMENT when too few rows hold pixels.
+// share its phase and their residuals are correlated): the bias-reduced CR2
+// form (stats/cluster_covariance.h), not the plain covariance.
+// INVALID_ARGUMENT when too few rows hold pixels.
 absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRows& rows,
                                            const GlintModel& model, double wavelength_mm,
                                            const CombFitOptions& options);

@@ -313,7 +313,7 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
   // A fit that leaves residuals larger than the start's noise scale (a
   // reduced chi-square above 1: e.g. a tilted axis whose threads the rows
   // cross) misses something the errors must own: they grow by its root.
-  // (The jackknife sees misfit that varies from thread to thread, not the
+  // (The threads' scores see misfit that varies from thread to thread, not the
   // tilt's, which every thread shares: unscaled, one draw in three of the
   // bench sweep's 1° tilt fell outside 3 stated errors.)
   const double misfit = std::sqrt(std::max(1.0, comb.reduced_chi2));
