@@ -271,6 +271,37 @@ TEST(EstimateTest, PerspectiveSawtooth) {
   EXPECT_LT(e->peak_spacing_rad.common, e->peak_spacing_rad.systematic);
 }
 
+// A sawtooth's valley is empty: the noise and texture on it (3,000 photons
+// full scale, maxima at 1-2 % of the caustic peaks) are not a comb of
+// glints. Read as one, this scene came out a sinusoid 3.9° long.
+TEST(EstimateTest, NoiseOnASawtoothsEmptyValleyIsNotAComb) {
+  RenderScene scene;
+  scene.width_px = 800;
+  scene.height_px = 600;
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 4.327;
+  scene.amplitude_mm = 0.57348;  // m = 0.530, spacing 55.86°
+  scene.phase_angle_deg = 8.69;
+  scene.radius_px = 206.2;
+  scene.center_x_px = 377.1;
+  scene.photons_full_scale = 3000.0;
+  scene.source_blur_deg = 0.77;
+  scene.exposure = 0.0092;
+  scene.camera_distance_mm = 1396.0;
+  scene.vignetting = 0.19;
+  scene.seed = 3034;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  Acquisition acquisition = Lab(8.69);
+  acquisition.camera_distance_mm = 1396.0;
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, acquisition, EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSawtooth) << ProfileModelName(e->model);
+  ASSERT_TRUE(e->peak_spacing_rad.resolved);
+  EXPECT_NEAR(e->peak_spacing_rad.value / kDeg, r->truth.peak_spacing_deg,
+              3.0 * e->peak_spacing_rad.stderr_value / kDeg);
+}
+
 // A coloured cloth: a Lambertian term under the lobe, and a body as dark as
 // the background, so the limb away from the light is lost beyond the
 // terminator even at small phase angles. The Lambertian dome bulges above
