@@ -12,15 +12,15 @@ $max_slope_balanced << EOD
 0.08 0.00233363
 0.16 0.00172674
 0.24 0.0123261
-0.4 0.0232087
+0.4 0.0215377
 EOD
 $max_slope_accurate << EOD
-0.02 0.307082
+0.02 0.307329
 0.04 0.246589
 0.08 0.00233363
 0.16 0.00172674
 0.24 0.0123261
-0.4 0.0232087
+0.4 0.0215377
 EOD
 $noise_fast << EOD
 200000 0.927452
@@ -43,8 +43,8 @@ $noise_accurate << EOD
 20000 0.0123261
 5000 0.0159333
 2000 0.0186717
-800 0.840165
-300 1.09613
+800 0.840282
+300 1.09631
 EOD
 $blur_fast << EOD
 0.3 1.25154
@@ -55,7 +55,7 @@ $blur_fast << EOD
 6 2.76749
 EOD
 $blur_balanced << EOD
-0.3 0.0249448
+0.3 0.0190549
 0.6 0.0123261
 1.2 0.00870654
 2.4 0.00989982
@@ -63,7 +63,7 @@ $blur_balanced << EOD
 6 0.171771
 EOD
 $blur_accurate << EOD
-0.3 0.0249448
+0.3 0.0190549
 0.6 0.0123261
 1.2 0.00870654
 2.4 0.00989982
@@ -82,7 +82,7 @@ $px_per_period_balanced << EOD
 32 4.3548
 16 0.0103601
 8 0.0128184
-5 0.00265397
+5 0.00762586
 3 0.131546
 2 0.0206048
 EOD
@@ -90,30 +90,30 @@ $px_per_period_accurate << EOD
 32 4.3548
 16 0.0103601
 8 0.0128184
-5 0.00265397
-3 0.05615
-2 0.0513285
+5 0.00762586
+3 0.0561368
+2 0.0511427
 EOD
 $phase_angle_fast << EOD
-10 0.144568
+10 0.323767
 40 0.250335
 70 0.655361
 100 0.593138
 120 0.707932
 EOD
 $phase_angle_balanced << EOD
-10 0.00725407
+10 0.00130005
 40 0.0109638
-70 0.0101222
-100 0.00339114
+70 0.00824377
+100 0.00867855
 120 0.707932
 EOD
 $phase_angle_accurate << EOD
-10 0.00725407
+10 0.00130005
 40 0.0109638
-70 0.0101222
-100 0.00339114
-120 0.72965
+70 0.00824377
+100 0.00867855
+120 0.723519
 EOD
 $tilt_fast << EOD
 0 0.953246
@@ -126,7 +126,7 @@ EOD
 $tilt_balanced << EOD
 0 0.0123261
 1 0.268852
-2 0.277748
+2 0.266037
 3 0.326223
 4 0.283494
 5 0.942244
@@ -134,10 +134,10 @@ EOD
 $tilt_accurate << EOD
 0 0.0123261
 1 0.268852
-2 0.277748
+2 0.266037
 3 0.326223
-4 0.306898
-5 0.922408
+4 0.306985
+5 0.921914
 EOD
 $exposure_fast << EOD
 1 0.953246
@@ -147,16 +147,14 @@ $exposure_balanced << EOD
 1 0.0123261
 10 0.0175891
 30 0.088638
-300 0.146189
 EOD
 $exposure_accurate << EOD
 1 0.0123261
 10 0.0175891
 30 0.088638
-300 0.146189
 EOD
 set terminal pngcairo size 1900,850 font ',10'
-set output '/tmp/w3/sweep2/sweep_error.png'
+set output '/tmp/w8/sweep2/sweep_error.png'
 set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
@@ -197,7 +195,7 @@ set xlabel 'exposure, times the default (glints clip)'
 plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
 set terminal svg size 1900,850
-set output '/tmp/w3/sweep2/sweep_error.svg'
+set output '/tmp/w8/sweep2/sweep_error.svg'
 set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
