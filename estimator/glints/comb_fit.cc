@@ -876,9 +876,10 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   // Each row's own parameters are profiled out of its Jacobian; the
   // threads' own scores then measure the error the data actually show.
   // Over 16 noise draws of each of the 21 comb-fitted fixtures the spacing
-  // spread 0.71-1.74 times the errors so stated (19 within a factor 1.5),
-  // against 0.47-1.64 times the delete-one-thread jackknife's (17 within;
-  // its error ranged over 9 times from draw to draw of one scene).
+  // spread 0.69-1.64 times its statistical error so stated (20 within a
+  // factor 1.5; with session 15's limb errors too), against 0.47-1.36 times
+  // with the delete-one-thread jackknife used before (17 within; its error
+  // ranged over 9 times from draw to draw of one scene).
   ceres::Problem::EvaluateOptions eval;
   eval.parameter_blocks = {shared, &log_sigma, &psf_q};
   for (auto& o : own) eval.parameter_blocks.push_back(o.data());
