@@ -272,9 +272,10 @@ EdgeWindow MakeEdgeWindow(const std::vector<double>& v, double background, doubl
   }
   // A clipped pixel's level is only a lower bound: the sensor stopped the
   // limb's bright rim of grazing scatter there, and the model, which rises
-  // on, drew the edge inward (radius 0.03, 0.05, 0.06 and 0.21 px short at
-  // 10, 30, 100 and 300 times the default exposure, the bench sweep's
-  // scene). The window keeps the rest, or none when fewer than 6 remain.
+  // on, drew the edge inward (at 300 times the default exposure, the bench
+  // sweep's scene, the radius 0.21 px short; 0.10 px with them left out. At
+  // 10-100 times no limb pixel clips, and it is 0.03-0.06 px short all the
+  // same). The window keeps the rest, or none when fewer than 6 remain.
   if (clipped != nullptr && !clipped->empty()) {
     std::vector<int> kept;
     for (int x : w.xs) {
