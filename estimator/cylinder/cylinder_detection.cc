@@ -176,6 +176,8 @@ void SetRadiusStderr(const Line& left, double left_systematic, const Line& right
       std::hypot(std::hypot(right.at_center_stderr, right_systematic), right_blur);
   g->left_limb_systematic_px = left_systematic;
   g->right_limb_systematic_px = right_systematic;
+  g->left_limb_blur_px = left_blur;
+  g->right_limb_blur_px = right_blur;
 }
 
 // The pixels RefineEdge fits for one band's limb: from two outside the first

@@ -47,6 +47,11 @@ struct CylinderGeometry {
   double right_limb_stderr_px = 0.0;
   double left_limb_systematic_px = 0.0;
   double right_limb_systematic_px = 0.0;
+  // Each limb's signed move (px, + toward larger columns) when the lens
+  // blur moves by its own error: both limbs move together, so this share
+  // of their errors (also in *_limb_stderr_px, in quadrature) is coherent.
+  double left_limb_blur_px = 0.0;
+  double right_limb_blur_px = 0.0;
   // The lens blur (Gaussian σ, px) the limbs were fitted through, and one
   // the limb in shadow proposed that was not used (0 when none; its
   // allowance is then in radius_stderr_px).
