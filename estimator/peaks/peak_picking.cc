@@ -123,6 +123,8 @@ double NearestPeak(const std::vector<double>& s, double near, double radius) {
 // The least height, as a share of the lower caustic peak's excess, of a
 // maximum between the peaks that counts as a glint of a comb (the teeth in PickPeaks).
 constexpr double kMinToothShare = 0.05;
+// An outside point closer than this to the limb (px) lies on its edge.
+constexpr double kLimbEdgePx = 4.0;
 
 double Stddev(const std::vector<double>& v) {
   if (v.size() < 2) return 0.0;
@@ -485,7 +487,49 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
                                    (s[out_r] - profile.background) / c_r);
       if (b > 0.0 && b <= most) lambert = b;
     }
+    // A peak whose outside point lies on the limb's edge (an outer caustic
+    // at the limb) has no outside there: the chord is then a + b·cos(φ − α)
+    // through the other peak's outside point alone, with a the level where
+    // the Lambertian term is dark (cos(φ − α) < 0, beyond the terminator).
+    // Through the limb's edge, the straight chord and the Lambertian one
+    // through it lay below the diffuse dome, which then filled a sawtooth's
+    // valley (m = 0.58 at 100°, diffuse 0.19, the outside point 2.5 px
+    // inside the limb: a ratio of 0.27, read as a sinusoid), and a straight
+    // chord down the limb's edge lay below an empty valley (m = 0.67 at
+    // 112°, no diffuse term).
+    auto cut = [&](int out) {
+      return profile.radius_px > 0.0 &&
+             profile.radius_px * (1.0 - std::fabs(std::sin(azimuth_of(out)))) < kLimbEdgePx;
+    };
+    const bool cut_l = cut(out_l);
+    const bool cut_r = cut(out_r);
+    bool one_sided = false;
+    double dark = 0.0;
+    double dark_lambert = 0.0;
+    if (cut_l != cut_r) {
+      std::vector<double> unlit;
+      for (int k = 0; k < n; ++k) {
+        if (k >= lobe_lo && k <= lobe_hi) continue;
+        if (profile.count[k] > 0.0 && std::cos(azimuth_of(k) - phase_angle_rad) < -0.05) {
+          unlit.push_back(s[k]);
+        }
+      }
+      const int inner = cut_l ? out_r : out_l;
+      const double c_in = std::cos(azimuth_of(inner) - phase_angle_rad);
+      one_sided = true;
+      dark = unlit.size() >= 5 ? Median(unlit) : s[inner];
+      // b only from a point the Lambertian term lights measurably: at the
+      // terminator (cos(φ − α) → 0) the noise would set it (a sinusoid at
+      // 107°, its inner outside point 0.2 % of full scale above the dark
+      // level at cos 0.065, drew a chord above its filled valley).
+      if (c_in > 0.05 && s[inner] - dark > 3.0 * se[inner]) {
+        dark_lambert = (s[inner] - dark) / c_in;
+      }
+    }
     auto chord = [&](int k) {
+      if (one_sided) {
+        return dark + dark_lambert * std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
+      }
       if (lambert > 0.0) return s[out_l] + lambert * (std::cos(azimuth_of(k) - phase_angle_rad) - c_l);
       return s[out_l] + (s[out_r] - s[out_l]) * (k - out_l) / std::max(out_r - out_l, 1);
     };

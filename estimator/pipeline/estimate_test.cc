@@ -347,8 +347,10 @@ struct Reading {
 absl::StatusOr<Reading> RenderAndEstimate(const RenderScene& scene) {
   absl::StatusOr<Rendered> r = RenderPhotograph(scene);
   if (!r.ok()) return r.status();
-  absl::StatusOr<Estimate> e =
-      EstimateFromImage(r->image, Lab(scene.phase_angle_deg), EstimateOptions());
+  Acquisition lab = Lab(scene.phase_angle_deg);
+  lab.cylinder_diameter_mm = scene.diameter_mm;
+  lab.camera_distance_mm = scene.camera_distance_mm;
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, lab, EstimateOptions());
   if (!e.ok()) return e.status();
   return Reading{*std::move(r), *std::move(e)};
 }
@@ -394,6 +396,57 @@ INSTANTIATE_TEST_SUITE_P(EstimateCases, DiffuseSteepSawtoothTest, ::testing::Val
                          [](const ::testing::TestParamInfo<double>& info) {
                            return std::string(info.param < 0 ? "LightOnTheLeft" : "LightOnTheRight");
                          });
+
+// Back-lit sawtooths whose outer caustic lies at the limb: the level
+// between the peaks is judged against a chord through the inner peak's
+// outside alone (see PickPeaks), not one down the limb's edge, which read
+// both valleys as filled, so as sinusoids.
+TEST(EstimateTest, ASawtoothsValleyBesideTheLimbIsEmpty) {
+  // No Lambertian term, the inner peak's outside beyond the terminator
+  // (m = 0.67 at 112°, a lens blur of 1 px).
+  RenderScene bare;
+  bare.width_px = 320;
+  bare.height_px = 240;
+  bare.model = ProfileModel::kSawtooth;
+  bare.wavelength_mm = 0.6271;
+  bare.amplitude_mm = 0.10542;
+  bare.phase_angle_deg = 111.61;
+  bare.radius_px = 80.7;
+  bare.center_x_px = 162.5;
+  bare.photons_full_scale = 10000.0;
+  bare.source_blur_deg = 0.35;
+  bare.exposure = 0.0029;
+  bare.optics_blur_px = 1.0;
+  bare.camera_distance_mm = 1274.0;
+  bare.seed = 3139;
+  // A Lambertian term of 0.19 whose dome rises to the limb (m = 0.58 at
+  // 100°).
+  RenderScene diffuse;
+  diffuse.width_px = 640;
+  diffuse.height_px = 480;
+  diffuse.model = ProfileModel::kSawtooth;
+  diffuse.wavelength_mm = 3.1333;
+  diffuse.amplitude_mm = 0.4549;
+  diffuse.phase_angle_deg = 99.7;
+  diffuse.radius_px = 247.1;
+  diffuse.center_x_px = 301.0;
+  diffuse.photons_full_scale = 10000.0;
+  diffuse.source_blur_deg = 0.46;
+  diffuse.exposure = 0.0069;
+  diffuse.diffuse = 0.193;
+  diffuse.axis_angle_deg = 0.13;
+  diffuse.optics_blur_px = 1.01;
+  diffuse.camera_distance_mm = 1037.0;
+  diffuse.seed = 3076;
+  for (const RenderScene& scene : {bare, diffuse}) {
+    absl::StatusOr<Reading> reading = RenderAndEstimate(scene);
+    ASSERT_TRUE(reading.ok()) << reading.status();
+    EXPECT_EQ(reading->estimate.model, ProfileModel::kSawtooth)
+        << "at " << scene.phase_angle_deg << " deg: "
+        << ProfileModelName(reading->estimate.model);
+    if (reading->estimate.peak_spacing_rad.resolved) ExpectSpacingWithinThreeErrors(*reading);
+  }
+}
 
 // A cylinder that fills a vignetted frame (a 144 px radius in 320 px): no
 // background lay beyond 1.15 radii, the background noise came out 0, and
