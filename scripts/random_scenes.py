@@ -2,7 +2,7 @@
 """Photographs weavefit has never seen: random scenes, rendered, estimated, checked.
 
 Usage: scripts/random_scenes.py FIRST LAST [--out DIR] [--noisy] [--lens-blur PX]
-                                [-j JOBS] [--mode MODE]
+                                [-j JOBS] [--mode MODE] [--outer-caustic LO HI]
 
 Seeds FIRST..LAST-1 each pick a scene at random (the seed fixes it, so a
 failure can be rendered again): sinusoid, sawtooth or smooth; max slope
@@ -83,6 +83,17 @@ def scene_flags(seed, noisy, lens_blur):
     return flags, EXTENSIONS[fmt], alpha, distance
 
 
+def outer_caustic_deg(seed, noisy, lens_blur):
+    """|α|/2 + arctan m of seed's scene (orthographic); -1 for a smooth one."""
+    flags, _, alpha, _ = scene_flags(seed, noisy, lens_blur)
+    f = dict(zip(flags[::2], flags[1::2]))
+    if f["--model"] == "smooth":
+        return -1.0
+    lam, h0 = float(f["--wavelength-mm"]), float(f["--amplitude-mm"])
+    m = 2 * math.pi * h0 / lam if f["--model"] == "sinusoid" else 4 * h0 / lam
+    return abs(alpha) / 2 + math.degrees(math.atan(m))
+
+
 def check(seed, out_dir, noisy, lens_blur, mode):
     """(seed, verdict line, render flags)."""
     flags, ext, alpha, distance = scene_flags(seed, noisy, lens_blur)
@@ -133,21 +144,29 @@ def main():
     parser.add_argument("--lens-blur", type=float, default=None)
     parser.add_argument("--mode", default="balanced")
     parser.add_argument("-j", "--jobs", type=int, default=2)
+    parser.add_argument("--outer-caustic", type=float, nargs=2, metavar=("LO", "HI"),
+                        help="only the split scenes whose outer caustic, |alpha|/2 + arctan m, "
+                             "lies at LO-HI deg (the limb at 90)")
     args = parser.parse_args()
     if not os.access(WEAVEFIT, os.X_OK):
         sys.exit("build the client first: %s is missing" % WEAVEFIT)
     os.makedirs(args.out, exist_ok=True)
+    seeds = list(range(args.first, args.last))
+    if args.outer_caustic:
+        seeds = [s for s in seeds
+                 if args.outer_caustic[0] <= outer_caustic_deg(s, args.noisy, args.lens_blur)
+                 <= args.outer_caustic[1]]
     counts = {"ok": 0, "BAD": 0, "ERROR": 0, "RENDER-FAILED": 0}
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
         runs = pool.map(lambda s: check(s, args.out, args.noisy, args.lens_blur, args.mode),
-                        range(args.first, args.last))
+                        seeds)
         for seed, line, flags in runs:
             print(seed, line, flush=True)
             counts[line.split()[0]] += 1
             if not line.startswith("ok"):
                 print("      ", " ".join(flags), flush=True)
     print("%d scenes: %d ok, %d wrong (BAD), %d refused (ERROR), %d not rendered"
-          % (args.last - args.first, counts["ok"], counts["BAD"], counts["ERROR"],
+          % (len(seeds), counts["ok"], counts["BAD"], counts["ERROR"],
              counts["RENDER-FAILED"]))
     return 1 if counts["BAD"] or counts["RENDER-FAILED"] else 0
 
