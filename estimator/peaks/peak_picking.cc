@@ -520,7 +520,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       dark = unlit.size() >= 5 ? Median(unlit) : s[inner];
       // b only from a point the Lambertian term lights measurably: at the
       // terminator (cos(φ − α) → 0) the noise would set it (a sinusoid at
-      // 107°, its inner outside point 0.2 % of full scale above the dark
+      // 107°, its inner outside point 0.02 % of full scale above the dark
       // level at cos 0.065, drew a chord above its filled valley).
       if (c_in > 0.05 && s[inner] - dark > 3.0 * se[inner]) {
         dark_lambert = (s[inner] - dark) / c_in;
