@@ -70,6 +70,7 @@ absl::Status ProfileFitOptions::Validate() const {
   if (!(lens_blur_px >= 0.0)) return absl::InvalidArgumentError("lens_blur_px must be >= 0");
   if (!(half_width_px >= 0.0)) return absl::InvalidArgumentError("half_width_px must be >= 0");
   if (!(margin_rad > 0.0)) return absl::InvalidArgumentError("margin_rad must be > 0");
+  if (!(window_max_slope >= 0.0)) return absl::InvalidArgumentError("window_max_slope must be >= 0");
   if (max_iterations < 1) return absl::InvalidArgumentError("max_iterations must be >= 1");
   return absl::OkStatus();
 }
@@ -84,7 +85,8 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   if (n < 8) return absl::InvalidArgumentError("profile too short to fit");
   const double bin = profile.bin_width_rad;
   const double mirror0 = phase_angle_rad / 2.0;
-  const double reach = std::atan(std::max(max_slope0, 0.0)) + options.margin_rad +
+  const double reach = std::atan(std::max({max_slope0, options.window_max_slope, 0.0})) +
+                       options.margin_rad +
                        2.0 * options.smoothing_rad;
   const double limit = 84.0 * M_PI / 180.0;
   // The data: the profile smoothed like the model, with standard errors
@@ -122,7 +124,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
         "needs a censored likelihood (not implemented)"));
   }
   auto sigma_of = [&](int i) {
-    const double noise = std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
+    const double noise = std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(profile.count[i]);
     return std::max(profile.stderr_mean[i], noise) * gain;
   };
   // The blur fixed at each bin: the smoothing and the floor, constant in

@@ -29,6 +29,11 @@ struct ProfileFitOptions {
   double half_width_px = 0.0;
   // The fitted window reaches this far beyond the starting caustics (rad).
   double margin_rad = 6.0 * 3.14159265358979323846 / 180.0;
+  // ... or beyond the caustics of this max slope, where larger than the
+  // start's: fits from several starts must share one window for their BICs
+  // to compare (a start of 0.2 fitted only the dome between a sawtooth's
+  // peaks at ±35° and won on the BIC of its fewer bins).
+  double window_max_slope = 0.0;
   int max_iterations = 100;
 
   absl::Status Validate() const;

@@ -281,6 +281,7 @@ absl::Status PeakPickingOptions::Validate() const {
     return absl::InvalidArgumentError("lobe_fraction must be in (0, 1)");
   }
   if (!(min_dip_sigmas > 0.0)) return absl::InvalidArgumentError("min_dip_sigmas must be > 0");
+  if (!(min_tooth_sigmas > 0.0)) return absl::InvalidArgumentError("min_tooth_sigmas must be > 0");
   if (bootstrap_samples < 0) return absl::InvalidArgumentError("bootstrap_samples must be >= 0");
   return absl::OkStatus();
 }
@@ -405,8 +406,9 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
 
   // The finest smoothing at which the lobe shows significant maxima: a
   // noisy photograph needs more than a clean one. Significance is judged
-  // against pixel noise (the background's, per bin), not against the spread
-  // over rows: that spread is mostly the weave's own structure, signal here.
+  // against pixel noise at the bin's level (Profile::PixelNoise: the shot
+  // noise grows with it), not against the spread over rows: that spread is
+  // mostly the weave's own structure, signal here.
   double light_deg = options.smoothing_deg;
   double light_bins = 0.0;
   std::vector<double> s;
@@ -421,7 +423,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     for (int i = 0; i < n; ++i) {
       se[i] = profile.count[i] <= 0.0
                   ? 1e30  // no data: never significant
-                  : gain * std::max(profile.background_noise, 1e-6) / std::sqrt(profile.count[i]);
+                  : gain * std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(profile.count[i]);
       excess[i] = s[i] - baseline[i];
     }
     maxima = SignificantMaxima(excess, se, lobe_lo, lobe_hi, 0.0, options);
@@ -605,6 +607,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // Teeth: every prominent maximum of the lobe, however low.
     PeakPickingOptions any_height = options;
     any_height.min_peak_ratio = 0.0;
+    any_height.min_dip_sigmas = options.min_tooth_sigmas;
     // ... that stands at least kMinToothShare of the lower caustic peak
     // above the floor: a sinusoid's comb fills the valley to a third of the
     // peaks or more, while the noise and texture on a sawtooth's empty

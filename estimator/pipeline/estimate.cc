@@ -637,11 +637,15 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
     estimate->warnings.push_back(absl::StrCat("model-shape bank not searched: ",
                                               near.status().message()));
   }
+  // One window for all starts, the widest: the best BIC per model is kept
+  // over the starts.
+  ProfileFitOptions shared_window = fit_options;
+  shared_window.window_max_slope = *std::max_element(starts.begin(), starts.end());
   absl::StatusOr<ProfileFitResult> fits;
   for (double start : starts) {
     absl::StatusOr<ProfileFitResult> f = FitProfileModels(
         estimate->profile, acquisition.phase_angle_rad, acquisition.GetProjection(), start,
-        fit_options);
+        shared_window);
     if (!f.ok()) {
       if (!fits.ok() || fits->fits.empty()) fits = f;
       continue;

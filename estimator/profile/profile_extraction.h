@@ -2,6 +2,8 @@
 #ifndef WEAVEFIT_ESTIMATOR_PROFILE_PROFILE_EXTRACTION_H_
 #define WEAVEFIT_ESTIMATOR_PROFILE_PROFILE_EXTRACTION_H_
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -35,6 +37,13 @@ struct Profile {
   // Level and noise (robust sigma of one pixel) outside the cylinder.
   double background = 0.0;
   double background_noise = 0.0;
+  // The sensor's shot noise: a pixel's variance grows by noise_gain per unit
+  // of level above the background (Poisson–Gaussian: variance =
+  // background_noise² + noise_gain·(level − background)), estimated from the
+  // differences of vertically neighbouring pixels, which the radiance
+  // running along the axis leaves to the noise (EstimateNoiseGain). 0 when the
+  // photograph does not show it (a dark body, too few samples).
+  double noise_gain = 0.0;
   std::int64_t saturated_samples = 0;
 
   // Partial sums per block of consecutive rows, so that estimators can
@@ -44,7 +53,26 @@ struct Profile {
   std::vector<double> block_count;
 
   int NumBins() const { return static_cast<int>(azimuth_rad.size()); }
+  // One pixel's noise sigma at bin i's mean level (the mean variance of its
+  // pixels, glints included: the model is linear in the level).
+  double PixelNoise(int i) const {
+    const double shot = noise_gain * std::max(mean[i] - background, 0.0);
+    return std::sqrt(background_noise * background_noise + shot);
+  }
 };
+
+// The Poisson part of a Poisson–Gaussian sensor noise (Profile::noise_gain)
+// from the differences of vertically neighbouring pixels across the whole
+// width (background, limbs and cylinder all run along the axis): grouped by
+// level, each group's variance (the mean square of its differences within
+// 4 robust sigmas, half of it per pixel), and the line variance = c +
+// gain·level through the groups by weighted least squares, leaving out
+// one at a time the groups far above it (glints and thread edges:
+// structure, not noise). Sparse rows and columns on large photographs:
+// at most 256 × 256 pairs. 0 when the groups cannot tell the gain from
+// none.
+double EstimateNoiseGain(const Image& luminance, const CylinderGeometry& geometry,
+                         double background, double background_noise);
 
 struct ProfileOptions {
   double bin_width_deg = 0.25;       // azimuth bin width

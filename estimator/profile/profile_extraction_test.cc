@@ -144,6 +144,86 @@ TEST(ProfileExtractionTest, StandardErrorsReflectThePixelNoise) {
   EXPECT_NEAR(sum_ratio / bins, 1.0, 0.2);
 }
 
+// A 480×320 photograph of a cylinder (R = 180 px) whose level runs from
+// 0.02 to 0.52 across it (or stays at the background's 0.02 with `dark`),
+// with a band of thread-like glints (+0.4 on three rows of every eight,
+// 6-17° of azimuth), under Poisson–Gaussian noise: variance 0.003² +
+// gain·level.
+Image PoissonGaussianImage(const CylinderGeometry& g, double gain, bool dark, std::uint32_t seed) {
+  Image image;
+  image.width = 480;
+  image.height = 320;
+  image.channels = 1;
+  image.pixels.resize(static_cast<std::size_t>(image.width) * image.height);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const Projection projection;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      const double phi = AzimuthFromOffset(g.NormalisedOffset(x, y), projection);
+      double value = 0.02;
+      if (!std::isnan(phi)) {
+        if (!dark) value += 0.25 * (1.0 + std::cos(2.0 * phi));
+        if (phi > 0.1 && phi < 0.3 && y % 8 < 3) value += 0.4;
+      }
+      const double sigma = std::sqrt(0.003 * 0.003 + gain * value);
+      image.pixels[static_cast<std::size_t>(y) * image.width + x] =
+          static_cast<float>(value + sigma * normal(rng));
+    }
+  }
+  return image;
+}
+
+CylinderGeometry WideGeometry() {
+  CylinderGeometry g;
+  g.center_x_px = 240.4;
+  g.center_row_px = 159.5;
+  g.radius_px = 180.0;
+  g.top_row = 0;
+  g.bottom_row = 319;
+  g.left_observed = g.right_observed = true;
+  return g;
+}
+
+TEST(ProfileExtractionTest, NoiseGainIsThePoissonPartOfTheSensorNoise) {
+  const CylinderGeometry g = WideGeometry();
+  const Projection projection;
+  for (double gain : {1.0 / 300.0, 1.0 / 3000.0, 1.0 / 20000.0}) {
+    const Image image = PoissonGaussianImage(g, gain, /*dark=*/false, 5);
+    absl::StatusOr<Profile> p = ExtractProfile(image, g, projection, Options(0.5));
+    ASSERT_TRUE(p.ok()) << p.status();
+    // The glint band's pairs across thread edges are structure: the fit
+    // leaves them out.
+    EXPECT_NEAR(p->noise_gain / gain, 1.0, 0.1) << "gain " << gain;
+    // A pixel's noise at a bin's level, from the background's and the gain.
+    for (double at : {-0.8, -0.3, 0.5}) {
+      const int i = static_cast<int>((at + M_PI / 2.0) / p->bin_width_rad);
+      const int k = static_cast<int>(std::lround((p->azimuth_rad[i] - p->azimuth_rad[0]) / p->bin_width_rad));
+      ASSERT_EQ(k, i);
+      const double truth = std::sqrt(0.003 * 0.003 + gain * p->mean[i]);
+      EXPECT_NEAR(p->PixelNoise(i) / truth, 1.0, 0.1) << "gain " << gain << " at " << at;
+    }
+  }
+  // Without shot noise there is no gain to find.
+  const Image flat = PoissonGaussianImage(g, 0.0, /*dark=*/false, 6);
+  absl::StatusOr<Profile> p = ExtractProfile(flat, g, projection, Options(0.5));
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_LT(p->noise_gain, 0.05 / 20000.0);
+}
+
+TEST(ProfileExtractionTest, NoiseGainIsNotReadFromGlintsAlone) {
+  // A dark body: the only bright pixels are the glint band's, whose pairs
+  // across thread edges differ by the structure. Its gain is either not
+  // found (0) or found without the structure.
+  const CylinderGeometry g = WideGeometry();
+  const Projection projection;
+  const double gain = 1.0 / 3000.0;
+  const Image image = PoissonGaussianImage(g, gain, /*dark=*/true, 7);
+  absl::StatusOr<Profile> p = ExtractProfile(image, g, projection, Options(0.5));
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_LT(p->noise_gain, 1.3 * gain);
+}
+
 TEST(ProfileExtractionTest, CountsAndBlockSumsAreConsistent) {
   const CylinderGeometry g = TiltedGeometry();
   const Projection projection;
