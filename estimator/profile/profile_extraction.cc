@@ -32,8 +32,11 @@ double EstimateNoiseGain(const Image& luminance, const CylinderGeometry& geometr
   const int top = std::max(geometry.top_row, 0);
   const int bottom = std::min(geometry.bottom_row, luminance.height - 1);
   if (bottom - top < 2) return 0.0;
-  const int row_step = std::max(1, (bottom - top) / 256);
-  const int col_step = std::max(1, luminance.width / 256);
+  // At most about 96 × 128 pairs: plenty for 24 groups of 300, and about
+  // a millisecond (every pixel of a 320×240 photograph, 76,000 pairs, took
+  // 9 ms of fast mode's 22; 38,000 took 6).
+  const int row_step = std::max(1, (bottom - top + 95) / 96);
+  const int col_step = std::max(1, (luminance.width + 127) / 128);
   // Pairs of vertically neighbouring pixels over the whole width: the
   // background and the cylinder's darkest parts fix the read noise, the
   // brighter parts its growth with the level. The cylinder's radiance, the
@@ -42,6 +45,10 @@ double EstimateNoiseGain(const Image& luminance, const CylinderGeometry& geometr
   const double dark_below = background + 5.0 * background_noise;
   std::vector<std::pair<double, double>> dark;    // (level, |difference|)
   std::vector<std::pair<double, double>> bright;
+  const std::size_t most = static_cast<std::size_t>((bottom - top) / row_step + 1) *
+                           static_cast<std::size_t>(luminance.width / col_step + 1);
+  dark.reserve(most);
+  bright.reserve(most);
   for (int y = top; y < bottom; y += row_step) {
     for (int x = 0; x < luminance.width; x += col_step) {
       if (luminance.IsSaturated(x, y) || luminance.IsSaturated(x, y + 1)) continue;

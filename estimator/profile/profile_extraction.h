@@ -68,9 +68,8 @@ struct Profile {
 // 4 robust sigmas, half of it per pixel), and the line variance = c +
 // gain·level through the groups by weighted least squares, leaving out
 // one at a time the groups far above it (glints and thread edges:
-// structure, not noise). Sparse rows and columns on large photographs:
-// at most 256 × 256 pairs. 0 when the groups cannot tell the gain from
-// none.
+// structure, not noise). Sparse rows and columns: about 96 × 128 pairs
+// at most. 0 when the groups cannot tell the gain from none.
 double EstimateNoiseGain(const Image& luminance, const CylinderGeometry& geometry,
                          double background, double background_noise);
 
