@@ -15,7 +15,7 @@ $max_slope_balanced << EOD
 0.4 0.0215377
 EOD
 $max_slope_accurate << EOD
-0.02 0.307329
+0.02 0.308935
 0.04 0.246589
 0.08 0.00233363
 0.16 0.00172674
@@ -27,24 +27,24 @@ $noise_fast << EOD
 20000 0.953246
 5000 0.911338
 2000 0.806587
-800 0.869489
-300 1.29975
+800 0.846927
+300 0.798493
 EOD
 $noise_balanced << EOD
 200000 0.00404809
 20000 0.0123261
 5000 0.0159333
-2000 0.0186717
-800 0.869489
-300 1.29975
+2000 0.0142106
+800 0.846927
+300 0.798493
 EOD
 $noise_accurate << EOD
 200000 0.00404809
 20000 0.0123261
 5000 0.0159333
-2000 0.0186717
+2000 0.0142106
 800 0.840282
-300 1.09631
+300 0.887604
 EOD
 $blur_fast << EOD
 0.3 1.25154
@@ -55,18 +55,18 @@ $blur_fast << EOD
 6 2.76749
 EOD
 $blur_balanced << EOD
-0.3 0.0190549
+0.3 0.0134745
 0.6 0.0123261
-1.2 0.00870654
-2.4 0.00989982
+1.2 0.00939384
+2.4 0.00835838
 4 0.0258283
 6 0.171771
 EOD
 $blur_accurate << EOD
-0.3 0.0190549
+0.3 0.0134745
 0.6 0.0123261
-1.2 0.00870654
-2.4 0.00989982
+1.2 0.00939384
+2.4 0.00835838
 4 0.0258283
 6 0.171771
 EOD
@@ -91,29 +91,29 @@ $px_per_period_accurate << EOD
 16 0.0103601
 8 0.0128184
 5 0.00762586
-3 0.0561368
-2 0.0511427
+3 0.0589874
+2 0.0499159
 EOD
 $phase_angle_fast << EOD
-10 0.323767
-40 0.250335
+10 0.238923
+40 0.174291
 70 0.655361
 100 0.593138
 120 0.707932
 EOD
 $phase_angle_balanced << EOD
 10 0.00130005
-40 0.0109638
+40 0.0112326
 70 0.00824377
 100 0.00867855
 120 0.707932
 EOD
 $phase_angle_accurate << EOD
 10 0.00130005
-40 0.0109638
+40 0.0112326
 70 0.00824377
 100 0.00867855
-120 0.723519
+120 0.721568
 EOD
 $tilt_fast << EOD
 0 0.953246
@@ -136,8 +136,8 @@ $tilt_accurate << EOD
 1 0.268852
 2 0.266037
 3 0.326223
-4 0.306985
-5 0.921914
+4 0.305289
+5 0.919566
 EOD
 $exposure_fast << EOD
 1 0.953246
@@ -154,7 +154,7 @@ $exposure_accurate << EOD
 30 0.088638
 EOD
 set terminal pngcairo size 1900,850 font ',10'
-set output '/tmp/w9/sweep/sweep_error.png'
+set output '/tmp/w10/sweep/sweep_error.png'
 set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
@@ -195,7 +195,7 @@ set xlabel 'exposure, times the default (glints clip)'
 plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
 set terminal svg size 1900,850
-set output '/tmp/w9/sweep/sweep_error.svg'
+set output '/tmp/w10/sweep/sweep_error.svg'
 set multiplot layout 2,4 title 'weavefit stability: median |peak spacing error|, deg (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left

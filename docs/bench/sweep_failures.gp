@@ -167,7 +167,7 @@ $exposure_accurate << EOD
 300 1
 EOD
 set terminal pngcairo size 1900,850 font ',10'
-set output '/tmp/w9/sweep/sweep_failures.png'
+set output '/tmp/w10/sweep/sweep_failures.png'
 set multiplot layout 2,4 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
@@ -208,7 +208,7 @@ set xlabel 'exposure, times the default (glints clip)'
 plot $exposure_fast using 1:2 with linespoints lw 2 pt 5 title 'peak picking (fast)', $exposure_balanced using 1:2 with linespoints lw 2 pt 7 title 'comb fit or peaks (balanced)', $exposure_accurate using 1:2 with linespoints lw 2 pt 9 title 'least squares + comb (accurate)'
 unset multiplot
 set terminal svg size 1900,850
-set output '/tmp/w9/sweep/sweep_failures.svg'
+set output '/tmp/w10/sweep/sweep_failures.svg'
 set multiplot layout 2,4 title 'weavefit stability: share of wrong (model, or > 3 stated errors off) or unresolved answers (a sinusoid, m 0.24, 1.44 mm = 16 px per period, 320x240, alpha 30 deg; one axis varied at a time)'
 set grid
 set key top left
