@@ -397,12 +397,8 @@ INSTANTIATE_TEST_SUITE_P(EstimateCases, DiffuseSteepSawtoothTest, ::testing::Val
                            return std::string(info.param < 0 ? "LightOnTheLeft" : "LightOnTheRight");
                          });
 
-// Back-lit sawtooths whose outer caustic lies at the limb: the level
-// between the peaks is judged against a chord through the inner peak's
-// outside alone (see PickPeaks), not one down the limb's edge, which read
-// both valleys as filled, so as sinusoids.
-// At 300 photons full scale a bright Lambertian dome (diffuse 0.18, level
-// 0.2) carries shot noise 4 times the dark background's. Judged against
+// At 300 photons full scale a bright Lambertian dome (4074: diffuse 0.18,
+// level 0.2) carries shot noise 4 times the dark background's. Judged against
 // the background's noise, its ripples were significant maxima, and a
 // smooth lobe became a sinusoid (random scenes 4021 and 4074); against the
 // noise at each bin's level (Profile::noise_gain) they are not.
@@ -533,6 +529,10 @@ TEST(EstimateTest, TheProfileFitsCompareTheirStartsOverOneWindow) {
   ExpectSpacingWithinThreeErrors(reading);
 }
 
+// Back-lit sawtooths whose outer caustic lies at the limb: the level
+// between the peaks is judged against a chord through the inner peak's
+// outside alone (see PickPeaks), not one down the limb's edge, which read
+// both valleys as filled, so as sinusoids.
 TEST(EstimateTest, ASawtoothsValleyBesideTheLimbIsEmpty) {
   // No Lambertian term, the inner peak's outside beyond the terminator
   // (m = 0.67 at 112°, a lens blur of 1 px).
