@@ -66,10 +66,10 @@ double EstimateNoiseGain(const Image& luminance, const CylinderGeometry& geometr
   };
   std::vector<Group> groups;
   constexpr std::size_t kPerGroup = 300;
-  auto add_groups = [&](std::vector<std::pair<double, double>>& pairs, std::size_t most) {
+  auto add_groups = [&](std::vector<std::pair<double, double>>& pairs, std::size_t max_groups) {
     if (pairs.size() < kPerGroup) return;
     std::sort(pairs.begin(), pairs.end());
-    const std::size_t count = std::min(most, pairs.size() / kPerGroup);
+    const std::size_t count = std::min(max_groups, pairs.size() / kPerGroup);
     std::vector<double> levels;
     std::vector<double> diffs;
     for (std::size_t g = 0; g < count; ++g) {
