@@ -121,7 +121,11 @@ class MemoryIStream : public Imf::IStream {
   explicit MemoryIStream(const std::string& bytes)
       : Imf::IStream("memory"), bytes_(bytes) {}
   bool read(char c[], int n) override {
-    if (n < 0 || position_ + static_cast<std::uint64_t>(n) > bytes_.size()) {
+    // Compared without adding to position_, which a corrupt offset table
+    // can seek to near 2^64 (the sum wrapped, and the copy read far out of
+    // bounds: found by fuzz_decode_minute).
+    if (n < 0 || position_ > bytes_.size() ||
+        static_cast<std::uint64_t>(n) > bytes_.size() - position_) {
       throw std::runtime_error("EXR data truncated");
     }
     std::memcpy(c, bytes_.data() + position_, n);
