@@ -1,6 +1,7 @@
 #include "estimator/peaks/peak_picking.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -125,6 +126,10 @@ double NearestPeak(const std::vector<double>& s, double near, double radius) {
 constexpr double kMinToothShare = 0.05;
 // An outside point closer than this to the limb (px) lies on its edge.
 constexpr double kLimbEdgePx = 4.0;
+// The valley's chord is fitted to the profile this far outside the two
+// peaks' outside points, from at least this many bins on each side.
+constexpr double kChordReachDeg = 20.0;
+constexpr int kChordMinBinsPerSide = 4;
 
 double Stddev(const std::vector<double>& v) {
   if (v.size() < 2) return 0.0;
@@ -474,7 +479,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     };
     const int out_l = outside(left_index, -1);
     const int out_r = outside(right_index, +1);
-    // The chord is a + b·cos(φ − α) through the two points where that
+    // Where too few bins lie outside the peaks to fit it (below), the chord
+    // is a + b·cos(φ − α) through the two points where that
     // fits a Lambertian term (b ≥ 0, and a no lower than the background
     // outside the cylinder), and the straight line otherwise. A Lambertian
     // term bulges above the straight chord between peaks far apart: a
@@ -528,10 +534,73 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         dark_lambert = (s[inner] - dark) / c_in;
       }
     }
+    // Both outside points in view: the chord is fitted to every bin outside
+    // them within kChordReachDeg (not at the limbs' edges, not clipped), as
+    // the better of a straight line and a + b·max(0, cos(φ − α)) with b > 0,
+    // by the sum of squares. Two points alone let one bin set it: a steep
+    // fine sinusoid at −73° (scene 4183), its left outside point still on
+    // the grazing scatter's rise toward the limb, drew a Lambertian chord
+    // through its filled valley (a ratio of 0.01: a sawtooth, wrongly).
+    bool fitted = false;
+    bool fitted_lambert = false;
+    double fit_a = 0.0;
+    double fit_b = 0.0;
+    if (!one_sided) {
+      const int reach = static_cast<int>(std::lround(kChordReachDeg * kDeg / bin));
+      std::vector<int> bins;
+      int left_count = 0;
+      for (int k = std::max(0, out_l - reach); k <= std::min(n - 1, out_r + reach); ++k) {
+        if (k > out_l && k < out_r) continue;
+        if (!(profile.count[k] > 0.0) || clipped(k) || cut(k)) continue;
+        bins.push_back(k);
+        if (k <= out_l) ++left_count;
+      }
+      const int right_count = static_cast<int>(bins.size()) - left_count;
+      if (left_count >= kChordMinBinsPerSide && right_count >= kChordMinBinsPerSide) {
+        // Ordinary least squares of s on (1, x): returns {a, b, rss}.
+        auto line_fit = [&](auto&& x_of) {
+          double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+          const double m = static_cast<double>(bins.size());
+          for (int k : bins) {
+            const double x = x_of(k);
+            sx += x;
+            sy += s[k];
+            sxx += x * x;
+            sxy += x * s[k];
+          }
+          const double det = m * sxx - sx * sx;
+          std::array<double, 3> r = {sy / m, 0.0, std::numeric_limits<double>::infinity()};
+          if (det <= 1e-12 * m * m) return r;
+          r[1] = (m * sxy - sx * sy) / det;
+          r[0] = (sy - r[1] * sx) / m;
+          double rss = 0.0;
+          for (int k : bins) rss += std::pow(s[k] - r[0] - r[1] * x_of(k), 2);
+          r[2] = rss;
+          return r;
+        };
+        const auto straight = line_fit([&](int k) { return static_cast<double>(k); });
+        const auto lit = line_fit([&](int k) {
+          return std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
+        });
+        if (lit[1] > 0.0 && lit[2] < straight[2]) {
+          fitted = fitted_lambert = true;
+          fit_a = lit[0];
+          fit_b = lit[1];
+        } else if (std::isfinite(straight[2])) {
+          fitted = true;
+          fit_a = straight[0];
+          fit_b = straight[1];
+        }
+      }
+    }
     auto chord = [&](int k) {
       if (one_sided) {
         return dark + dark_lambert * std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
       }
+      if (fitted_lambert) {
+        return fit_a + fit_b * std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
+      }
+      if (fitted) return fit_a + fit_b * k;
       if (lambert > 0.0) return s[out_l] + lambert * (std::cos(azimuth_of(k) - phase_angle_rad) - c_l);
       return s[out_l] + (s[out_r] - s[out_l]) * (k - out_l) / std::max(out_r - out_l, 1);
     };
