@@ -374,13 +374,45 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // The lobe spans from the first to the last bin where the heavily
   // smoothed profile rises above lobe_fraction of its highest excess.
   double lobe_max = 0.0;
-  for (int i = lo; i <= hi; ++i) lobe_max = std::max(lobe_max, heavy[i] - baseline[i]);
   int lobe_lo = -1;
   int lobe_hi = -1;
-  for (int i = lo; i <= hi; ++i) {
-    if (heavy[i] - baseline[i] > options.lobe_fraction * lobe_max) {
-      if (lobe_lo < 0) lobe_lo = i;
-      lobe_hi = i;
+  auto find_lobe = [&]() {
+    lobe_max = 0.0;
+    for (int i = lo; i <= hi; ++i) lobe_max = std::max(lobe_max, heavy[i] - baseline[i]);
+    lobe_lo = lobe_hi = -1;
+    for (int i = lo; i <= hi; ++i) {
+      if (heavy[i] - baseline[i] > options.lobe_fraction * lobe_max) {
+        if (lobe_lo < 0) lobe_lo = i;
+        lobe_hi = i;
+      }
+    }
+  };
+  find_lobe();
+  // A Lambertian term (a coloured cloth) is a dome, cos(φ − α), that bulges
+  // above the straight baseline; at large phase angles the window runs from
+  // beyond the terminator to the lit limb and the dome filled it, so the
+  // lobe was "not isolated" (random scenes at 112°-119° with diffuse
+  // 0.1-0.2). Where the straight baseline leaves the lobe at an end of the
+  // window, the baseline a + b·max(0, cos(φ − α)) through the two ends is
+  // tried, and kept if it isolates the lobe with nothing far below it.
+  if (lobe_lo >= 0 && (lobe_lo <= lo || lobe_hi >= hi)) {
+    auto lit = [&](double i) { return std::max(0.0, std::cos(azimuth_of(i) - phase_angle_rad)); };
+    const double c_lo = lit(at_lo);
+    const double c_hi = lit(at_hi);
+    const double b = std::fabs(c_hi - c_lo) > 0.1 ? (base_hi - base_lo) / (c_hi - c_lo) : 0.0;
+    if (b > 0.0) {
+      const std::vector<double> straight = baseline;
+      for (int i = 0; i < n; ++i) baseline[i] = base_lo + b * (lit(i) - c_lo);
+      find_lobe();
+      double deepest = 0.0;
+      for (int i = lo; i <= hi; ++i) {
+        if (i < lobe_lo || i > lobe_hi) deepest = std::min(deepest, heavy[i] - baseline[i]);
+      }
+      if (lobe_lo < 0 || lobe_lo <= lo || lobe_hi >= hi ||
+          deepest < -options.lobe_fraction * lobe_max) {
+        baseline = straight;
+        find_lobe();
+      }
     }
   }
   if (lobe_lo < 0) {
