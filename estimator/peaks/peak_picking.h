@@ -94,6 +94,11 @@ struct PeakPickingResult {
   double smoothing_rad = 0.0;
   // Mean level between the peaks over the lower peak's height.
   double valley_ratio = 0.0;
+  // The lower of the two caustic peaks' asymmetries: the excess 2.5 outer
+  // half-widths inside a peak less that as far outside, over the peak's
+  // excess (a sinusoid's caustic keeps an inner shoulder, a sawtooth's is
+  // symmetric); 0 where a peak's outside is not in view.
+  double caustic_asymmetry = 0.0;
   // Share of the lobe's bins more than 5 % saturated.
   double clipped_lobe_share = 0.0;
   std::vector<std::string> warnings;

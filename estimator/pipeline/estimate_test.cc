@@ -463,6 +463,39 @@ TEST(EstimateTest, ASteepFineSinusoidsFilledValleyIsNotASawtooth) {
   ExpectSpacingWithinThreeErrors(*reading);
 }
 
+// A steeper and finer one (m = 0.70, 2.4 px per period) with sharp caustics:
+// its valley fills to only 0.095 of the lower peak, a sawtooth's level, but
+// both caustics keep a sinusoid's long inner shoulder (asymmetry 0.36 and
+// 0.40; a sawtooth's blurred delta reads below 0.05). Random scene 4151,
+// through the 8-bit sRGB PNG it was saved as; it was named a sawtooth, the
+// spacing 3.7 errors short.
+TEST(EstimateTest, BothCausticsWithASinusoidsShoulderAreASinusoid) {
+  RenderScene scene;
+  scene.width_px = 320;
+  scene.height_px = 240;
+  scene.model = ProfileModel::kSinusoid;
+  scene.wavelength_mm = 0.6170;
+  scene.amplitude_mm = 0.06855;
+  scene.phase_angle_deg = -18.08;
+  scene.radius_px = 88.4;
+  scene.center_x_px = 162.6;
+  scene.photons_full_scale = 50000.0;
+  scene.source_blur_deg = 1.08;
+  scene.exposure = 0.0056;
+  scene.seed = 4151;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  Acquisition lab = Lab(scene.phase_angle_deg);
+  lab.pixels_linear = false;  // sRGB, as the file says
+  absl::StatusOr<Estimate> e =
+      EstimateFromBytes(Encoded(r->image, EncodeFormat::kPng8), lab, EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  const Reading reading{*std::move(r), *std::move(e)};
+  EXPECT_EQ(reading.estimate.model, ProfileModel::kSinusoid)
+      << ProfileModelName(reading.estimate.model);
+  ExpectSpacingWithinThreeErrors(reading);
+}
+
 // A smooth lobe at −114° on the ramp of a Lambertian term (diffuse 0.16),
 // seen through a 1 px lens blur: peak picking found a "split" 9° off α/2,
 // which the geometry check leaves unresolved, but the model stayed the
