@@ -395,28 +395,36 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // above the straight baseline; at large phase angles the window runs from
   // beyond the terminator to the lit limb and the dome filled it, so the
   // lobe was "not isolated" (random scenes at 112°-119° with diffuse
-  // 0.1-0.2). Where the straight baseline leaves the lobe at an end of the
-  // window, the baseline a + b·max(0, cos(φ − α)) through the two ends is
-  // tried, and kept if it isolates the lobe with nothing far below it.
+  // 0.1-0.2). The grazing scatter rises as 1/cos φ toward the limb, and
+  // where it is strong it did the same (independently rendered photographs
+  // at 60°-110°). Where the straight baseline leaves the lobe at an end of
+  // the window, a + b·f(φ) through the two ends is tried for f = max(0,
+  // cos(φ − α)), then 1/cos φ, and the first kept that isolates the lobe
+  // with nothing far below it.
   if (lobe_lo >= 0 && (lobe_lo <= lo || lobe_hi >= hi)) {
+    const std::vector<double> straight = baseline;
     auto lit = [&](double i) { return std::max(0.0, std::cos(azimuth_of(i) - phase_angle_rad)); };
-    const double c_lo = lit(at_lo);
-    const double c_hi = lit(at_hi);
-    const double b = std::fabs(c_hi - c_lo) > 0.1 ? (base_hi - base_lo) / (c_hi - c_lo) : 0.0;
-    if (b > 0.0) {
-      const std::vector<double> straight = baseline;
-      for (int i = 0; i < n; ++i) baseline[i] = base_lo + b * (lit(i) - c_lo);
+    auto grazing = [&](double i) { return 1.0 / std::max(std::cos(azimuth_of(i)), 0.05); };
+    auto try_shape = [&](auto&& shape) {
+      const double c_lo = shape(at_lo);
+      const double c_hi = shape(at_hi);
+      const double b = std::fabs(c_hi - c_lo) > 0.1 ? (base_hi - base_lo) / (c_hi - c_lo) : 0.0;
+      if (!(b > 0.0)) return false;
+      for (int i = 0; i < n; ++i) baseline[i] = base_lo + b * (shape(i) - c_lo);
       find_lobe();
       double deepest = 0.0;
       for (int i = lo; i <= hi; ++i) {
         if (i < lobe_lo || i > lobe_hi) deepest = std::min(deepest, heavy[i] - baseline[i]);
       }
-      if (lobe_lo < 0 || lobe_lo <= lo || lobe_hi >= hi ||
-          deepest < -options.lobe_fraction * lobe_max) {
-        baseline = straight;
-        find_lobe();
+      if (lobe_lo >= 0 && lobe_lo > lo && lobe_hi < hi &&
+          deepest >= -options.lobe_fraction * lobe_max) {
+        return true;
       }
-    }
+      baseline = straight;
+      find_lobe();
+      return false;
+    };
+    if (!try_shape(lit)) try_shape(grazing);
   }
   if (lobe_lo < 0) {
     return absl::InvalidArgumentError(

@@ -496,6 +496,24 @@ TEST(EstimateTest, BothCausticsWithASinusoidsShoulderAreASinusoid) {
   ExpectSpacingWithinThreeErrors(reading);
 }
 
+// A strong grazing scatter (bright threads along the axis, 40 % of each
+// pitch) rises as 1/cos φ to twice the lobe's level at the lit limb. The
+// straight baseline across the window searched (−10° to 70° at α = 60°) lay
+// under all of it, and the photograph was refused ("not isolated"); a
+// baseline a + b/cos φ through the window's ends isolates the lobe.
+TEST(EstimateTest, AStrongGrazingScatterLeavesTheLobeIsolated) {
+  RenderScene scene;
+  scene.phase_angle_deg = 60.0;
+  scene.axial_reflectance = 20.0;
+  scene.gap_fraction = 0.4;
+  scene.seed = 7;
+  absl::StatusOr<Reading> reading = RenderAndEstimate(scene);
+  ASSERT_TRUE(reading.ok()) << reading.status();
+  EXPECT_EQ(reading->estimate.model, ProfileModel::kSinusoid)
+      << ProfileModelName(reading->estimate.model);
+  ExpectSpacingWithinThreeErrors(*reading);
+}
+
 // A smooth lobe at −114° on the ramp of a Lambertian term (diffuse 0.16),
 // seen through a 1 px lens blur: peak picking found a "split" 9° off α/2,
 // which the geometry check leaves unresolved, but the model stayed the
