@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 
 #include "absl/status/status.h"
 #include "estimator/stats/smooth.h"
@@ -133,6 +134,10 @@ constexpr int kChordMinBinsPerSide = 4;
 // The caustic asymmetry (PickPeaks) from which both peaks read as a
 // sinusoid's, whatever the level between them.
 constexpr double kSinusoidShoulder = 0.2;
+// On a comb of glints smoothed over its teeth, the share of the way from
+// a sawtooth's valley level to a sinusoid's from which the lobe is a
+// sinusoid (PickPeaks).
+constexpr double kCombSinusoidShare = 0.5;
 
 double Stddev(const std::vector<double>& v) {
   if (v.size() < 2) return 0.0;
@@ -144,14 +149,14 @@ double Stddev(const std::vector<double>& v) {
   return std::sqrt(ss / (v.size() - 1));
 }
 
-// Distance in facet tilt between the outermost maxima of the sinusoid's
+// Distance in facet tilt between the outermost maxima of the model's
 // specular radiance (DESIGN.md §3) blurred by a Gaussian of sigma_rad, at
 // mirror azimuth mirror_rad: what peak picking on a profile smoothed by
 // sigma_rad would read for max slope m.
-double SmoothedSinusoidSpacing(double max_slope, double sigma_rad,
-                               double mirror_rad) {
+double SmoothedSpacing(ProfileModel model, double max_slope, double sigma_rad,
+                       double mirror_rad) {
   RadianceParams<double> p;
-  p.model = ProfileModel::kSinusoid;
+  p.model = model;
   p.max_slope = max_slope;
   p.mirror_rad = mirror_rad;
   p.blur_rad = sigma_rad;
@@ -175,16 +180,45 @@ double SmoothedSinusoidSpacing(double max_slope, double sigma_rad,
   return (RefineMaximum(f, right) - RefineMaximum(f, left)) * step;
 }
 
-// The max slope whose smoothed sinusoid lobe shows `spacing_rad` between its
-// maxima. Smoothing shifts the maxima inward by an amount that barely
-// depends on m, so the fixed-point iteration g ← g + (target − S(g)) on the
-// true spacing g converges in a few steps.
-double InvertSmoothedSinusoidSpacing(double spacing_rad, double sigma_rad,
-                                     double mirror_rad) {
+// The level over the middle half between the two outermost maxima of the
+// model's specular radiance (DESIGN.md §3) blurred by a Gaussian of
+// sigma_rad, over the lower of the two: what peak picking's valley ratio
+// reads on a lobe smoothed by sigma_rad, for max slope m.
+double SmoothedValleyRatio(ProfileModel model, double max_slope, double sigma_rad,
+                           double mirror_rad) {
+  RadianceParams<double> p;
+  p.model = model;
+  p.max_slope = max_slope;
+  p.mirror_rad = mirror_rad;
+  p.blur_rad = sigma_rad;
+  const double reach = std::atan(max_slope) + 5.0 * sigma_rad;
+  const double step = std::min(sigma_rad, std::atan(max_slope)) / 10.0;
+  const int n = static_cast<int>(std::ceil(2.0 * reach / step)) + 1;
+  std::vector<double> f(n);
+  for (int i = 0; i < n; ++i) f[i] = SpecularRadiance(p, mirror_rad - reach + i * step);
+  const int mid = n / 2;
+  int left = 0;
+  for (int i = 1; i <= mid; ++i) if (f[i] > f[left]) left = i;
+  int right = n - 1;
+  for (int i = n - 2; i >= mid; --i) if (f[i] > f[right]) right = i;
+  const int q = (right - left) / 4;
+  if (right - left < 3) return 1.0;
+  double middle = 0.0;
+  for (int i = left + q; i <= right - q; ++i) middle += f[i];
+  middle /= (right - left - 2 * q + 1);
+  return middle / std::min(f[left], f[right]);
+}
+
+// The max slope whose smoothed lobe (of the model) shows `spacing_rad`
+// between its maxima. Smoothing shifts the maxima inward by an amount that
+// barely depends on m, so the fixed-point iteration g ← g + (target − S(g))
+// on the true spacing g converges in a few steps.
+double InvertSmoothedSpacing(ProfileModel model, double spacing_rad, double sigma_rad,
+                             double mirror_rad) {
   double g = spacing_rad;
   for (int it = 0; it < 20; ++it) {
     const double m = std::tan(0.5 * std::clamp(g, 1e-4, 2.8));
-    const double miss = spacing_rad - SmoothedSinusoidSpacing(m, sigma_rad, mirror_rad);
+    const double miss = spacing_rad - SmoothedSpacing(model, m, sigma_rad, mirror_rad);
     g += miss;
     if (std::fabs(miss) < 1e-6) break;
   }
@@ -502,6 +536,10 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         "raised to their neighbours' maximum", clipped_bins));
   }
   const bool split = right_index - left_index >= 3;
+  // The valley's chord (below), for the comb's smoothed valley too, and
+  // whether it was fitted to both sides of the lobe.
+  std::vector<double> chord_values(n, 0.0);
+  bool chord_fitted = false;
   if (split) {
     const double lower = std::min(excess[left_index], excess[right_index]);
     result.dip_sigmas = std::min(
@@ -586,6 +624,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // through its filled valley (a ratio of 0.01: a sawtooth, wrongly).
     bool fitted = false;
     bool fitted_lambert = false;
+    bool fitted_grazing = false;
     double fit_a = 0.0;
     double fit_b = 0.0;
     if (!one_sided) {
@@ -625,7 +664,14 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         const auto lit = line_fit([&](int k) {
           return std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
         });
-        if (lit[1] > 0.0 && lit[2] < straight[2]) {
+        const auto graze = line_fit([&](int k) {
+          return 1.0 / std::max(std::cos(azimuth_of(k)), 0.05);
+        });
+        if (graze[1] > 0.0 && graze[2] < straight[2] && !(lit[1] > 0.0 && lit[2] < graze[2])) {
+          fitted = fitted_grazing = true;
+          fit_a = graze[0];
+          fit_b = graze[1];
+        } else if (lit[1] > 0.0 && lit[2] < straight[2]) {
           fitted = fitted_lambert = true;
           fit_a = lit[0];
           fit_b = lit[1];
@@ -640,6 +686,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       if (one_sided) {
         return dark + dark_lambert * std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
       }
+      if (fitted_grazing) return fit_a + fit_b / std::max(std::cos(azimuth_of(k)), 0.05);
       if (fitted_lambert) {
         return fit_a + fit_b * std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
       }
@@ -647,6 +694,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       if (lambert > 0.0) return s[out_l] + lambert * (std::cos(azimuth_of(k) - phase_angle_rad) - c_l);
       return s[out_l] + (s[out_r] - s[out_l]) * (k - out_l) / std::max(out_r - out_l, 1);
     };
+    for (int k = 0; k < n; ++k) chord_values[k] = chord(k);
+    chord_fitted = fitted && !one_sided;
     const double lower_local =
         std::min(s[left_index] - chord(left_index), s[right_index] - chord(right_index));
     const int q = (right_index - left_index) / 4;
@@ -822,7 +871,43 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       if (heavy_peaks(Smooth(filled, sigma_h / bin), &hl, &hr)) {
         const double mirror = 0.5 * (azimuth_of(hl) + azimuth_of(hr));
         const double measured = spacing_of(azimuth_of(hl), azimuth_of(hr));
-        const double m = InvertSmoothedSinusoidSpacing(measured, sigma_h, mirror);
+        // The model, from the level between the smoothed peaks above the
+        // chord against what each model's lobe, smoothed alike, shows there
+        // (SmoothedValleyRatio): the teeth alone do not make a sinusoid.
+        // Threads along the axis glinting λ/2 apart (independently rendered
+        // photographs) stand between a sawtooth's caustics as a comb of
+        // teeth just as they stand outside them; smoothed over the comb,
+        // that level is the chord's. On those 12 sawtooths the valley read
+        // 0.02-0.29 of the peaks where a smoothed sinusoid of their spacing
+        // would show 0.35-0.82 (0.16-0.21 of the way from the sawtooth's
+        // level to the sinusoid's, one at 0.80), their 24 sinusoids 0.69-1.23
+        // of the way.
+        const int il = static_cast<int>(std::lround(hl));
+        const int ir = static_cast<int>(std::lround(hr));
+        const std::vector<double> hs = Smooth(filled, sigma_h / bin);
+        const int hq = (ir - il) / 4;
+        double valley_h = 0.0;
+        for (int k = il + hq; k <= ir - hq; ++k) valley_h += hs[k] - chord_values[k];
+        valley_h /= (ir - il - 2 * hq + 1);
+        const double low_h = std::min(hs[il] - chord_values[il], hs[ir] - chord_values[ir]);
+        const double sin_level = SmoothedValleyRatio(
+            ProfileModel::kSinusoid,
+            InvertSmoothedSpacing(ProfileModel::kSinusoid, measured, sigma_h, mirror), sigma_h,
+            mirror);
+        const double saw_level = SmoothedValleyRatio(
+            ProfileModel::kSawtooth,
+            InvertSmoothedSpacing(ProfileModel::kSawtooth, measured, sigma_h, mirror), sigma_h,
+            mirror);
+        // Only against a chord fitted to both sides: drawn through a point
+        // on the limb's rise (an outer caustic 6° from the limb, scene
+        // 4109), it lay above a sinusoid's filled valley.
+        const double valley_share =
+            chord_fitted && low_h > 0.0 && sin_level > saw_level
+                ? (valley_h / low_h - saw_level) / (sin_level - saw_level)
+                : 1.0;
+        result.model = valley_share >= kCombSinusoidShare ? ProfileModel::kSinusoid
+                                                          : ProfileModel::kSawtooth;
+        const double m = InvertSmoothedSpacing(result.model, measured, sigma_h, mirror);
         result.spacing_rad = PeakSpacingRad(m);
         result.mirror_rad = mirror;
         result.left_peak_rad = mirror - 0.5 * result.spacing_rad;
@@ -830,7 +915,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         // Gain of the correction, for propagating the measured spread.
         const double delta = 0.1 * kDeg;
         const double gain_h =
-            (PeakSpacingRad(InvertSmoothedSinusoidSpacing(measured + delta, sigma_h, mirror)) -
+            (PeakSpacingRad(InvertSmoothedSpacing(result.model, measured + delta, sigma_h, mirror)) -
              result.spacing_rad) / delta;
         comb_bootstrapped = true;
         for (int r = 0; r < options.bootstrap_samples; ++r) {
@@ -845,9 +930,15 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         result.warnings.push_back(absl::StrFormat(
             "the lobe is a comb of glints (%d maxima, median spacing %.2f deg): "
             "peaks read after smoothing by %.2f deg and corrected for that "
-            "smoothing with the sinusoid's lobe shape; the comb's residue is "
+            "smoothing with the %s lobe shape (%s); the comb's residue is "
             "counted in the standard errors",
-            static_cast<int>(teeth.size()), gap / kDeg, sigma_h / kDeg));
+            static_cast<int>(teeth.size()), gap / kDeg, sigma_h / kDeg,
+            result.model == ProfileModel::kSinusoid ? "sinusoid's" : "sawtooth's",
+            chord_fitted ? absl::StrFormat("its level between the peaks is %.2f of the way "
+                                           "from a sawtooth's to a sinusoid's",
+                                           valley_share)
+                         : std::string("no chord fitted on both sides of the lobe to judge "
+                                       "the level between the peaks by: the teeth decide")));
       } else {
         // The smoothed peaks merge: keep the outermost teeth, whose offset
         // from the caustic can reach a tooth spacing.

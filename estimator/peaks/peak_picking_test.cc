@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include "absl/status/status.h"
@@ -170,8 +171,9 @@ TEST(PeakPickingTest, BootstrapIsSeededAndCanBeTurnedOff) {
 }
 
 // A profile of num_blocks identical row blocks holding the analytic
-// radiance (no comb, no noise) on `bins` bins of width bin_deg.
-Profile AnalyticProfile(const RadianceParams<double>& params, double bin_deg) {
+// radiance (no comb, no noise) plus `extra`(φ) on bins of width bin_deg.
+Profile AnalyticProfile(const RadianceParams<double>& params, double bin_deg,
+                        const std::function<double(double)>& extra = nullptr) {
   Profile p;
   const double bin = bin_deg * kDeg;
   const int half = static_cast<int>(std::floor(86.0 / bin_deg + 1e-9));
@@ -182,7 +184,7 @@ Profile AnalyticProfile(const RadianceParams<double>& params, double bin_deg) {
   const double per_block = 50.0;  // pixels per bin and block
   for (int i = 0; i < 2 * half; ++i) {
     const double phi = (i - half + 0.5) * bin;
-    const double value = Radiance(params, phi) + p.background;
+    const double value = Radiance(params, phi) + p.background + (extra ? extra(phi) : 0.0);
     p.azimuth_rad.push_back(phi);
     p.mean.push_back(value);
     p.stderr_mean.push_back(p.background_noise / std::sqrt(per_block * p.num_blocks));
@@ -267,6 +269,45 @@ TEST(PeakPickingTest, AnalyticSawtoothAndSmoothProfiles) {
   EXPECT_EQ(smooth->model, ProfileModel::kSmooth);
   EXPECT_FALSE(smooth->split_resolved);
   EXPECT_NEAR(smooth->mirror_rad / kDeg, -8.0, 0.1);
+}
+
+// Threads along the axis that glint in thin lines λ/2 apart over the whole
+// lit arc (as independently rendered photographs show them) stand between a
+// sawtooth's caustics as a comb of teeth, just as they stand outside them.
+// The teeth alone made it a sinusoid (12 such sawtooths of 12, spacings up
+// to 7 deg long); smoothed over the comb, the level between the peaks is the
+// chord's, a sawtooth's. A sinusoid under the same lines stays a sinusoid.
+TEST(PeakPickingTest, AxialGlintLinesBetweenTheCausticsDoNotMakeASinusoid) {
+  for (ProfileModel model : {ProfileModel::kSawtooth, ProfileModel::kSinusoid}) {
+    RadianceParams<double> params;
+    params.model = model;
+    params.max_slope = 0.3;
+    params.mirror_rad = 20.0 * kDeg;
+    params.blur_rad = 0.3 * kDeg;
+    params.scale = 0.01;
+    params.phase_angle_rad = 40.0 * kDeg;
+    double top = 0.0;
+    for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
+      top = std::max(top, Radiance(params, phi));
+    }
+    // Lines 3.5° apart, σ 0.3°, a quarter of the lobe's highest, over the
+    // lit arc (φ > α − 90°).
+    auto lines = [&](double phi) {
+      if (phi < params.phase_angle_rad - M_PI / 2.0) return 0.0;
+      const double spacing = 3.5 * kDeg;
+      const double d = std::remainder(phi - 0.7 * kDeg, spacing);
+      return 0.25 * top * std::exp(-0.5 * std::pow(d / (0.3 * kDeg), 2));
+    };
+    absl::StatusOr<PeakPickingResult> p =
+        PickPeaks(AnalyticProfile(params, 0.25, lines), params.phase_angle_rad, Projection(),
+                  PeakPickingOptions());
+    ASSERT_TRUE(p.ok()) << p.status();
+    ASSERT_TRUE(p->split_resolved);
+    EXPECT_EQ(p->model, model);
+    const double truth = 2.0 * std::atan(0.3) / kDeg;
+    EXPECT_NEAR(p->spacing_rad / kDeg, truth, 1.0) << static_cast<int>(model);
+    EXPECT_LE(std::fabs(p->spacing_rad / kDeg - truth), 3.0 * p->spacing_stderr_rad / kDeg);
+  }
 }
 
 TEST(PeakPickingTest, ErrorsForProfilesWithoutALobe) {
