@@ -485,9 +485,11 @@ absl::Status CombFitOptions::Validate() const {
         "need 0 < min_explained <= min_explained_alone < 1");
   }
   if (!(slope_floor >= 0.0) || !(wavelength_floor >= 0.0) || !(mirror_floor_rad >= 0.0) ||
+      !(slope_mismatch >= 0.0) || !(wavelength_mismatch >= 0.0) ||
       !(mirror_tolerance_rad >= 0.0)) {
     return absl::InvalidArgumentError(
-        "slope_floor, wavelength_floor, mirror_floor_rad and mirror_tolerance_rad must be >= 0");
+        "slope_floor, wavelength_floor, slope_mismatch, wavelength_mismatch, mirror_floor_rad "
+        "and mirror_tolerance_rad must be >= 0");
   }
   return absl::OkStatus();
 }
