@@ -75,8 +75,8 @@ struct CombFitOptions {
   // bands, threads along the axis glinting between them): over 10 comb fits
   // the max slope came out 0.1-1.2 % off (2.3 % at 5 px per period), either
   // sign, and the wavelength 0.08-0.33 % off (0.5 %), at up to 9.7 stated
-  // errors with the floors alone. Per photograph, not common: the sign
-  // changed from scene to scene.
+  // errors with the floors alone. Common to a sample's photographs, as the
+  // floors (ApplyCombFit).
   double slope_mismatch = 0.005;
   double wavelength_mismatch = 0.0015;
   // The same for the mirror azimuth (rad), and the offset from half the
