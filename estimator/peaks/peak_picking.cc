@@ -877,11 +877,11 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         // Threads along the axis glinting λ/2 apart (independently rendered
         // photographs) stand between a sawtooth's caustics as a comb of
         // teeth just as they stand outside them; smoothed over the comb,
-        // that level is the chord's. On those 12 sawtooths the valley read
-        // 0.02-0.29 of the peaks where a smoothed sinusoid of their spacing
-        // would show 0.35-0.82 (0.16-0.21 of the way from the sawtooth's
-        // level to the sinusoid's, one at 0.80), their 24 sinusoids 0.69-1.23
-        // of the way.
+        // that level is the chord's. On those 12 sawtooths it read at most
+        // 0.21 of the way from a sawtooth's level to a sinusoid's (one at
+        // 0.80: lines 2.5 times its caustics' height, 5° apart), on their 24
+        // sinusoids 0.69-1.23 of the way (a smoothed sinusoid's own level
+        // there, 0.25-0.98 of the peaks, is met to within 30 %).
         const int il = static_cast<int>(std::lround(hl));
         const int ir = static_cast<int>(std::lround(hr));
         const std::vector<double> hs = Smooth(filled, sigma_h / bin);
