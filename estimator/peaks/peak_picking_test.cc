@@ -275,7 +275,7 @@ TEST(PeakPickingTest, AnalyticSawtoothAndSmoothProfiles) {
 // lit arc (as independently rendered photographs show them) stand between a
 // sawtooth's caustics as a comb of teeth, just as they stand outside them.
 // The teeth alone made it a sinusoid (12 such sawtooths of 12, spacings up
-// to 7 deg long); smoothed over the comb, the level between the peaks is the
+// to 4.6 deg long); smoothed over the comb, the level between the peaks is the
 // chord's, a sawtooth's. A sinusoid under the same lines stays a sinusoid.
 TEST(PeakPickingTest, AxialGlintLinesBetweenTheCausticsDoNotMakeASinusoid) {
   for (ProfileModel model : {ProfileModel::kSawtooth, ProfileModel::kSinusoid}) {
