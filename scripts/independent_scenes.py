@@ -10,8 +10,9 @@ the photographs carry none of weavefit's own modelling choices. It renders
 35 fixed scenes, s01-s35 (sinusoid, sawtooth and smooth cylinders; phase
 angles -110 to 110 deg; 3.5-56 px per thread period; 320x240 to 800x600;
 orthographic or perspective at 900-1000 mm; 2,000-50,000 photons full scale;
-16-bit linear or 8-bit sRGB PNG), with --variants also 14 variants of them
-with the warp's surface scattering weakened (*w, 0.04) or removed (*n); NAMES
+16-bit linear or 8-bit sRGB PNG), with --variants also 29 variants of them
+with the warp's surface scattering weakened (*w, 0.04), removed (*n) or
+spread evenly over each thread's lam/2 of arc (*s, a broad lobe); NAMES
 picks scenes by name. Each is rendered into DIR (default
 /tmp/weavefit_independent) as NAME.png with its truth, NAME.truth.json (the
 scene's parameters under "params"; an image whose sidecar holds the same
@@ -129,10 +130,14 @@ MAIN = [
     {"name": "s35", "model": "sinusoid", "m": 0.35, "lam": 1.0, "alpha": 60, "W": 320, "H": 240, "Rpx": 80.0, "seed": 35, "scatter": 0.1, "blur": 0.6, "peak": 0.6, "photons": 5000},
 ]
 
-# Variants: a main scene again with its surface scattering weakened (w) or removed (n).
+# Variants: a main scene again with its surface scattering weakened (w),
+# removed (n), or smoothed (s: each axial thread's light spread evenly over
+# its lam/2 of arc, the broad lobe of DESIGN.md §3 rather than lines).
 VARIANT_SCATTER = {"n": 0, "w": 0.04}
 VARIANTS = ["s01n", "s05n", "s33n", "s02w", "s03w", "s04w", "s07w", "s11w", "s12w",
-            "s15w", "s18w", "s20w", "s22w", "s30w"]
+            "s15w", "s18w", "s20w", "s22w", "s30w",
+            "s01s", "s02s", "s03s", "s04s", "s07s", "s11s", "s12s", "s14s", "s19s",
+            "s21s", "s22s", "s25s", "s26s", "s28s", "s30s"]
 
 
 def scenes(with_variants):
@@ -140,7 +145,11 @@ def scenes(with_variants):
     out = list(MAIN)
     if with_variants:
         base = {sc["name"]: sc for sc in MAIN}
-        out += [dict(base[v[:-1]], name=v, scatter=VARIANT_SCATTER[v[-1]]) for v in VARIANTS]
+        for v in VARIANTS:
+            if v[-1] == "s":
+                out.append(dict(base[v[:-1]], name=v, smooth_scatter=True))
+            else:
+                out.append(dict(base[v[:-1]], name=v, scatter=VARIANT_SCATTER[v[-1]]))
     return out
 
 
@@ -378,6 +387,27 @@ def render(sc, outdir):
                         scat[r][c0] += e * (1 - fc)
                     if 0 <= c0 + 1 < W:
                         scat[r][c0 + 1] += e * fc
+
+        if sc.get("smooth_scatter"):
+            # each axial thread's light spread over its lam/2 of arc (a box
+            # of that width in columns, orthographic foreshortening)
+            widths = []
+            for c in range(W):
+                x = (c + 0.5 - cx) / k
+                cphi = math.sqrt(max(0.0, 1.0 - (x / R) ** 2)) if abs(x) < R else 0.0
+                widths.append(max(1, int(round(lam / 2 * k * cphi))))
+            for r in range(H):
+                row = scat[r]
+                pre = [0.0]
+                for val in row:
+                    pre.append(pre[-1] + val)
+                new_row = [0.0] * W
+                for c in range(W):
+                    w = widths[c]
+                    lo_c = max(0, c - w // 2)
+                    hi_c = min(W, lo_c + w)
+                    new_row[c] = (pre[hi_c] - pre[lo_c]) / w
+                scat[r] = new_row
 
     # ---- per-pixel body terms (4 sub-columns, 2 sub-rows a pixel)
     body = [[0.0] * W for _ in range(H)]
