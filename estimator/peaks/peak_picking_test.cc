@@ -157,16 +157,19 @@ TEST(PeakPickingTest, BootstrapIsSeededAndCanBeTurnedOff) {
   absl::StatusOr<PeakPickingResult> plain =
       PickPeaks(a.profile, scene.phase_angle_deg * kDeg, projection, options);
   ASSERT_TRUE(plain.ok()) << plain.status();
-  // Same peaks; the error is then the position quantisation alone (no comb
-  // on a sawtooth): per peak the wider of a bin and a pixel's footprint in
-  // azimuth, 1/(radius·cos φ), as a uniform error.
+  // Same peaks; the error is then the position quantisation (no comb on a
+  // sawtooth): per peak the wider of a bin and a pixel's footprint in
+  // azimuth, 1/(radius·cos φ), as a uniform error; and the sawtooth's shape
+  // allowance, 1 % of the spacing, common to the sample.
   EXPECT_EQ(plain->spacing_rad, a.peaks.spacing_rad);
   const double bin = a.profile.bin_width_rad;
   auto q = [&](double phi) {
     return std::max(bin, 1.0 / (a.profile.radius_px * std::cos(phi))) / std::sqrt(12.0);
   };
+  const double shape = 0.01 * plain->spacing_rad;
   EXPECT_NEAR(plain->spacing_stderr_rad,
-              std::hypot(q(plain->left_peak_rad), q(plain->right_peak_rad)), 1e-12);
+              std::hypot(q(plain->left_peak_rad), q(plain->right_peak_rad), shape), 1e-12);
+  EXPECT_NEAR(plain->spacing_common_rad, shape, 1e-12);
   EXPECT_GE(a.peaks.spacing_stderr_rad, plain->spacing_stderr_rad);
 }
 
