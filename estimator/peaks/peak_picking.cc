@@ -152,64 +152,72 @@ double Stddev(const std::vector<double>& v) {
   return std::sqrt(ss / (v.size() - 1));
 }
 
-// Distance in facet tilt between the outermost maxima of the model's
-// specular radiance (DESIGN.md §3) blurred by a Gaussian of sigma_rad, at
-// mirror azimuth mirror_rad: what peak picking on a profile smoothed by
+// The mean of level(k) over the middle half of [left, right]: the valley
+// between two peaks at those indices.
+template <typename Level>
+double MiddleHalfMean(int left, int right, Level&& level) {
+  const int q = (right - left) / 4;
+  double sum = 0.0;
+  for (int k = left + q; k <= right - q; ++k) sum += level(k);
+  return sum / (right - left - 2 * q + 1);
+}
+
+// The model's specular radiance (DESIGN.md §3) blurred by a Gaussian of
+// sigma_rad, at mirror azimuth mirror_rad, sampled in facet tilt β every
+// `step`, and its highest maximum on each side of β = 0.
+struct SmoothedLobe {
+  std::vector<double> f;
+  double step = 0.0;
+  int left = 0;
+  int right = 0;
+};
+SmoothedLobe SampleSmoothedLobe(ProfileModel model, double max_slope, double sigma_rad,
+                                double mirror_rad) {
+  RadianceParams<double> p;
+  p.model = model;
+  p.max_slope = max_slope;
+  p.mirror_rad = mirror_rad;
+  p.blur_rad = sigma_rad;
+  const double reach = std::atan(max_slope) + 5.0 * sigma_rad;
+  SmoothedLobe lobe;
+  lobe.step = std::min(sigma_rad, std::atan(max_slope)) / 10.0;
+  const int n = static_cast<int>(std::ceil(2.0 * reach / lobe.step)) + 1;
+  lobe.f.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const double beta = -reach + i * lobe.step;
+    lobe.f[i] = SpecularRadiance(p, mirror_rad - beta);
+  }
+  const int mid = n / 2;
+  for (int i = 1; i <= mid; ++i) if (lobe.f[i] > lobe.f[lobe.left]) lobe.left = i;
+  lobe.right = n - 1;
+  for (int i = n - 2; i >= mid; --i) if (lobe.f[i] > lobe.f[lobe.right]) lobe.right = i;
+  return lobe;
+}
+
+// Distance in facet tilt between the outermost maxima of the smoothed lobe
+// (SampleSmoothedLobe): what peak picking on a profile smoothed by
 // sigma_rad would read for max slope m.
 double SmoothedSpacing(ProfileModel model, double max_slope, double sigma_rad,
                        double mirror_rad) {
-  RadianceParams<double> p;
-  p.model = model;
-  p.max_slope = max_slope;
-  p.mirror_rad = mirror_rad;
-  p.blur_rad = sigma_rad;
-  const double reach = std::atan(max_slope) + 5.0 * sigma_rad;
-  const double step = std::min(sigma_rad, std::atan(max_slope)) / 10.0;
-  const int n = static_cast<int>(std::ceil(2.0 * reach / step)) + 1;
-  std::vector<double> f(n);
-  for (int i = 0; i < n; ++i) {
-    const double beta = -reach + i * step;
-    f[i] = SpecularRadiance(p, mirror_rad - beta);
-  }
-  // The highest maximum on each side of β = 0.
-  const int mid = n / 2;
-  int left = 0;
-  for (int i = 1; i <= mid; ++i) if (f[i] > f[left]) left = i;
-  int right = n - 1;
-  for (int i = n - 2; i >= mid; --i) if (f[i] > f[right]) right = i;
+  const SmoothedLobe lobe = SampleSmoothedLobe(model, max_slope, sigma_rad, mirror_rad);
   // Sub-step positions by a parabola through each maximum and its
   // neighbours: without them the spacing moves in whole steps and the
   // inversion below cannot settle.
-  return (RefineMaximum(f, right) - RefineMaximum(f, left)) * step;
+  return (RefineMaximum(lobe.f, lobe.right) - RefineMaximum(lobe.f, lobe.left)) * lobe.step;
 }
 
 // The level over the middle half between the two outermost maxima of the
-// model's specular radiance (DESIGN.md §3) blurred by a Gaussian of
-// sigma_rad, over the lower of the two: what peak picking's valley ratio
-// reads on a lobe smoothed by sigma_rad, for max slope m.
+// smoothed lobe (SampleSmoothedLobe), over the lower of the two: what peak
+// picking's valley ratio reads on a lobe smoothed by sigma_rad, for max
+// slope m.
 double SmoothedValleyRatio(ProfileModel model, double max_slope, double sigma_rad,
                            double mirror_rad) {
-  RadianceParams<double> p;
-  p.model = model;
-  p.max_slope = max_slope;
-  p.mirror_rad = mirror_rad;
-  p.blur_rad = sigma_rad;
-  const double reach = std::atan(max_slope) + 5.0 * sigma_rad;
-  const double step = std::min(sigma_rad, std::atan(max_slope)) / 10.0;
-  const int n = static_cast<int>(std::ceil(2.0 * reach / step)) + 1;
-  std::vector<double> f(n);
-  for (int i = 0; i < n; ++i) f[i] = SpecularRadiance(p, mirror_rad - reach + i * step);
-  const int mid = n / 2;
-  int left = 0;
-  for (int i = 1; i <= mid; ++i) if (f[i] > f[left]) left = i;
-  int right = n - 1;
-  for (int i = n - 2; i >= mid; --i) if (f[i] > f[right]) right = i;
-  const int q = (right - left) / 4;
+  const SmoothedLobe lobe = SampleSmoothedLobe(model, max_slope, sigma_rad, mirror_rad);
+  const int left = lobe.left;
+  const int right = lobe.right;
   if (right - left < 3) return 1.0;
-  double middle = 0.0;
-  for (int i = left + q; i <= right - q; ++i) middle += f[i];
-  middle /= (right - left - 2 * q + 1);
-  return middle / std::min(f[left], f[right]);
+  const double middle = MiddleHalfMean(left, right, [&](int i) { return lobe.f[i]; });
+  return middle / std::min(lobe.f[left], lobe.f[right]);
 }
 
 // The max slope whose smoothed lobe (of the model) shows `spacing_rad`
@@ -701,10 +709,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     chord_fitted = fitted && !one_sided;
     const double lower_local =
         std::min(s[left_index] - chord(left_index), s[right_index] - chord(right_index));
-    const int q = (right_index - left_index) / 4;
-    double middle = 0.0;
-    for (int k = left_index + q; k <= right_index - q; ++k) middle += s[k] - chord(k);
-    middle /= (right_index - left_index - 2 * q + 1);
+    const double middle =
+        MiddleHalfMean(left_index, right_index, [&](int k) { return s[k] - chord(k); });
     result.valley_ratio = lower_local > 0.0 ? std::max(middle, 0.0) / lower_local
                                             : std::max(middle, 0.0) / lower;
     // Each caustic peak's asymmetry: a sinusoid's caustic is an edge, the
@@ -871,7 +877,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       };
       double hl = 0;
       double hr = 0;
-      if (heavy_peaks(Smooth(filled, sigma_h / bin), &hl, &hr)) {
+      const std::vector<double> hs = Smooth(filled, sigma_h / bin);
+      if (heavy_peaks(hs, &hl, &hr)) {
         const double mirror = 0.5 * (azimuth_of(hl) + azimuth_of(hr));
         const double measured = spacing_of(azimuth_of(hl), azimuth_of(hr));
         // The model, from the level between the smoothed peaks above the
@@ -887,11 +894,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         // there, 0.25-0.98 of the peaks, is met to within 30 %).
         const int il = static_cast<int>(std::lround(hl));
         const int ir = static_cast<int>(std::lround(hr));
-        const std::vector<double> hs = Smooth(filled, sigma_h / bin);
-        const int hq = (ir - il) / 4;
-        double valley_h = 0.0;
-        for (int k = il + hq; k <= ir - hq; ++k) valley_h += hs[k] - chord_values[k];
-        valley_h /= (ir - il - 2 * hq + 1);
+        const double valley_h =
+            MiddleHalfMean(il, ir, [&](int k) { return hs[k] - chord_values[k]; });
         const double low_h = std::min(hs[il] - chord_values[il], hs[ir] - chord_values[ir]);
         const double sin_level = SmoothedValleyRatio(
             ProfileModel::kSinusoid,
