@@ -138,6 +138,14 @@ constexpr double kSinusoidShoulder = 0.2;
 // a sawtooth's valley level to a sinusoid's from which the lobe is a
 // sinusoid (PickPeaks).
 constexpr double kCombSinusoidShare = 0.5;
+// Within this of the terminator and of the limb, threads shadow and mask
+// each other and the grazing scatter departs from its 1/cos φ (PickPeaks).
+constexpr double kGrazingMarginDeg = 8.0;
+// Where the lobe is isolated only in the window trimmed to the scatter's
+// lawful range (PickPeaks), a comb's share this close to kCombSinusoidShare,
+// or any share short of its far side with the scatter's glint lines beside
+// the lobe, does not decide the model: the lobe is refused.
+constexpr double kCombTrimmedAmbiguity = 0.25;
 // The relative error of a sawtooth's spacing for the shape the model leaves
 // out (PickPeaks).
 constexpr double kSawtoothShapeFloor = 0.01;
@@ -374,8 +382,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   }
   const double center = index_of(phase_angle_rad / 2.0);
   const double half = options.search_half_width_deg * kDeg / bin;
-  const int lo = std::max(1, static_cast<int>(std::floor(center - half)));
-  const int hi = std::min(n - 2, static_cast<int>(std::ceil(center + half)));
+  int lo = std::max(1, static_cast<int>(std::floor(center - half)));
+  int hi = std::min(n - 2, static_cast<int>(std::ceil(center + half)));
   if (hi - lo < 8) {
     return absl::InvalidArgumentError(absl::StrFormat(
         "the mirror azimuth %.1f deg (half the phase angle) is outside the "
@@ -410,15 +418,22 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // Baseline: a straight line between the medians of the window's two ends,
   // which takes out the background and, to first order, the slow rise of
   // the grazing scatter toward a limb.
-  const int edge = std::max(3, (hi - lo) / 10);
-  const double base_lo = Median(std::vector<double>(heavy.begin() + lo, heavy.begin() + lo + edge));
-  const double base_hi = Median(std::vector<double>(heavy.begin() + hi - edge + 1, heavy.begin() + hi + 1));
-  const double at_lo = lo + 0.5 * (edge - 1);
-  const double at_hi = hi - 0.5 * (edge - 1);
+  double base_lo = 0.0;
+  double base_hi = 0.0;
+  double at_lo = 0.0;
+  double at_hi = 0.0;
   std::vector<double> baseline(n);
-  for (int i = 0; i < n; ++i) {
-    baseline[i] = base_lo + (base_hi - base_lo) * (i - at_lo) / (at_hi - at_lo);
-  }
+  auto straight_baseline = [&]() {
+    const int edge = std::max(3, (hi - lo) / 10);
+    base_lo = Median(std::vector<double>(heavy.begin() + lo, heavy.begin() + lo + edge));
+    base_hi = Median(std::vector<double>(heavy.begin() + hi - edge + 1, heavy.begin() + hi + 1));
+    at_lo = lo + 0.5 * (edge - 1);
+    at_hi = hi - 0.5 * (edge - 1);
+    for (int i = 0; i < n; ++i) {
+      baseline[i] = base_lo + (base_hi - base_lo) * (i - at_lo) / (at_hi - at_lo);
+    }
+  };
+  straight_baseline();
   // The lobe spans from the first to the last bin where the heavily
   // smoothed profile rises above lobe_fraction of its highest excess.
   double lobe_max = 0.0;
@@ -446,6 +461,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // the window, a + b·f(φ) through the two ends is tried for f = max(0,
   // cos(φ − α)), then 1/cos φ, and the first kept that isolates the lobe
   // with nothing far below it.
+  bool trimmed = false;
   if (lobe_lo >= 0 && (lobe_lo <= lo || lobe_hi >= hi)) {
     const std::vector<double> straight = baseline;
     auto lit = [&](double i) { return std::max(0.0, std::cos(azimuth_of(i) - phase_angle_rad)); };
@@ -469,7 +485,41 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       find_lobe();
       return false;
     };
-    if (!try_shape(lit)) try_shape(grazing);
+    if (!try_shape(lit) && !try_shape(grazing)) {
+      // Within a few degrees of the terminator the threads shadow each
+      // other, and within a few of the limb they mask each other: there the
+      // scatter leaves its 1/cos φ law (it starts softly, and it levels off
+      // before the limb). At α ≈ 110° the window runs from beyond the
+      // terminator to the limb, so both its ends lie there, and any shape
+      // drawn through them left the lobe running into one (the paper's gauze
+      // at 110° under a strong smooth scatter, independently rendered:
+      // "deepest" −0.11 against a lobe of 0.08). The window is then cut to
+      // where the law holds, kGrazingMarginDeg (plus the heavy smoothing)
+      // from both, and the three baselines are tried again there.
+      const int window_lo = lo;
+      const int window_hi = hi;
+      const double margin = std::sin(kGrazingMarginDeg * kDeg + options.lobe_smoothing_deg * kDeg);
+      auto trusted = [&](int i) {
+        const double phi = azimuth_of(i);
+        return std::cos(phi - phase_angle_rad) > margin && std::cos(phi) > margin;
+      };
+      while (lo < hi && !trusted(lo)) ++lo;
+      while (hi > lo && !trusted(hi)) --hi;
+      bool isolated = false;
+      if ((lo != window_lo || hi != window_hi) && hi - lo >= 8) {
+        straight_baseline();
+        find_lobe();
+        isolated = lobe_lo > lo && lobe_hi < hi;  // lobe_lo < 0 fails too
+        if (!isolated) isolated = try_shape(lit) || try_shape(grazing);
+      }
+      trimmed = isolated;
+      if (!isolated) {
+        lo = window_lo;
+        hi = window_hi;
+        straight_baseline();
+        find_lobe();
+      }
+    }
   }
   if (lobe_lo < 0) {
     return absl::InvalidArgumentError(
@@ -912,6 +962,31 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
             chord_fitted && low_h > 0.0 && sin_level > saw_level
                 ? (valley_h / low_h - saw_level) / (sin_level - saw_level)
                 : 1.0;
+        // The scatter's own glint lines outside the lobe (threads along the
+        // axis glinting λ/2 apart) can fill a sawtooth's valley or, above a
+        // chord drawn under their crests, empty a sinusoid's. Where the lobe
+        // stood out only in the trimmed window, independently rendered
+        // sinusoids under such lines read 0.20 and 0.31 of the way (at 110°),
+        // a sawtooth 0.19 (at 90°), smooth-scatter sinusoids 1.04-1.12: an
+        // ambiguous or line-ridden share is refused, not guessed.
+        int outer_teeth = 0;
+        if (trimmed) {
+          for (int k : SignificantMaxima(excess, se, lo, hi, 0.0, any_height)) {
+            if ((k < lobe_lo || k > lobe_hi) && excess[k] >= min_tooth) ++outer_teeth;
+          }
+        }
+        if (trimmed && (std::fabs(valley_share - kCombSinusoidShare) < kCombTrimmedAmbiguity ||
+                        (outer_teeth >= 2 &&
+                         valley_share < kCombSinusoidShare + kCombTrimmedAmbiguity))) {
+          return absl::InvalidArgumentError(absl::StrFormat(
+              "the specular lobe stands out only from a baseline drawn away from the "
+              "terminator and the limb (a strong grazing scatter); its comb of glints (%d maxima, median "
+              "spacing %.2f deg) reads %.2f of the way from a sawtooth's level between the "
+              "peaks to a sinusoid's, and %d glint lines of the scatter stand beside the lobe, "
+              "so the profile cannot be told (they can fill or empty that level); photograph "
+              "at a smaller phase angle",
+              static_cast<int>(teeth.size()), gap / kDeg, valley_share, outer_teeth));
+        }
         result.model = valley_share >= kCombSinusoidShare ? ProfileModel::kSinusoid
                                                           : ProfileModel::kSawtooth;
         const double m = InvertSmoothedSpacing(result.model, measured, sigma_h, mirror);

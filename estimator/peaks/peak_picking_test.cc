@@ -313,6 +313,40 @@ TEST(PeakPickingTest, AxialGlintLinesBetweenTheCausticsDoNotMakeASinusoid) {
   }
 }
 
+// The paper's gauze at a 110° phase angle under a strong grazing scatter:
+// cos(α/2)/cos φ over the lit arc (DESIGN.md §3), softened within a few
+// degrees of the terminator and of the limb, where the threads shadow and
+// mask each other. The window searched around α/2 runs from beyond the
+// terminator (20°) to the limb; its ends, an unlit level and a masked one,
+// drew a baseline that left the lobe running into them ("not isolated"),
+// whatever the shape drawn through them. The ends are now taken where the
+// scatter follows its law.
+TEST(PeakPickingTest, AStrongGrazingScatterAtOneHundredTenDegreesLeavesTheLobeIsolated) {
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSinusoid;
+  params.max_slope = 0.2356;
+  params.mirror_rad = 55.0 * kDeg;
+  params.blur_rad = 0.5 * kDeg;
+  params.scale = 0.01;
+  params.phase_angle_rad = 110.0 * kDeg;
+  const double at_mirror = Radiance(params, params.mirror_rad);
+  auto scatter = [&](double phi) {
+    const double lit = std::cos(phi - params.phase_angle_rad);
+    if (lit <= 0.0) return 0.0;
+    const double soft = std::min(1.0, lit / 0.12) * std::min(1.0, std::cos(phi) / 0.12);
+    return 1.5 * at_mirror * std::cos(params.mirror_rad) / std::cos(phi) * soft;
+  };
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(AnalyticProfile(params, 0.25, scatter), params.phase_angle_rad, Projection(),
+                PeakPickingOptions());
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->split_resolved);
+  EXPECT_EQ(p->model, ProfileModel::kSinusoid);
+  const double truth = 2.0 * std::atan(0.2356) / kDeg;
+  EXPECT_NEAR(p->spacing_rad / kDeg, truth, 1.0);
+  EXPECT_LE(std::fabs(p->spacing_rad / kDeg - truth), 3.0 * p->spacing_stderr_rad / kDeg);
+}
+
 TEST(PeakPickingTest, ErrorsForProfilesWithoutALobe) {
   // A flat profile: no lobe near α/2.
   RadianceParams<double> params;
