@@ -7,6 +7,8 @@
 #include <random>
 #include <string>
 
+#include <Eigen/Dense>
+
 #include "absl/status/status.h"
 #include "estimator/stats/smooth.h"
 #include "estimator/stats/golden_section.h"
@@ -141,6 +143,9 @@ constexpr double kCombSinusoidShare = 0.5;
 // Within this of the terminator and of the limb, threads shadow and mask
 // each other and the grazing scatter departs from its 1/cos φ (PickPeaks).
 constexpr double kGrazingMarginDeg = 8.0;
+// The valley's chord is a dome of free centre where its sum of squares
+// outside the peaks is at most this share of the other shapes' (PickPeaks).
+constexpr double kDomeRssShare = 0.5;
 // Where the lobe is isolated only in the window trimmed to the scatter's
 // lawful range (PickPeaks), a comb's share this close to kCombSinusoidShare,
 // or any share short of its far side with the scatter's glint lines beside
@@ -597,6 +602,20 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         "raised to their neighbours' maximum", clipped_bins));
   }
   const bool split = right_index - left_index >= 3;
+  // The window cut to the scatter's lawful range (above) also cuts off what
+  // lies within 10° of the terminator and of the limb, where a caustic may
+  // stand: one peak there is no evidence of a smooth lobe. A sawtooth at
+  // −115° (random scene 4047), its inner caustic 1° inside the terminator and
+  // its outer beyond the limb, read in the cut window as the diffuse dome's
+  // single peak, SMOOTH.
+  if (trimmed && !split) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "the specular lobe is not isolated: it stands out only from a baseline drawn "
+        "%.0f deg or more from the terminator and the limb (a strong grazing scatter or a "
+        "diffuse dome), and there it is one peak, which a caustic cut off beside the "
+        "terminator or the limb would also leave; photograph at a smaller phase angle",
+        kGrazingMarginDeg + options.lobe_smoothing_deg));
+  }
   // The valley's chord (below), for the comb's smoothed valley too, and
   // whether it was fitted to both sides of the lobe.
   std::vector<double> chord_values(n, 0.0);
@@ -678,14 +697,16 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     }
     // Both outside points in view: the chord is fitted to every bin outside
     // them within kChordReachDeg (not at the limbs' edges, not clipped), as
-    // the better of a straight line and a + b·max(0, cos(φ − α)) with b > 0,
-    // by the sum of squares. Two points alone let one bin set it: a steep
+    // the best of a straight line, a + b·max(0, cos(φ − α)) and a + b/cos φ
+    // with b > 0, and a dome of free centre (below), by the sum of squares. Two points alone let one bin set it: a steep
     // fine sinusoid at −73° (scene 4183), its left outside point still on
     // the grazing scatter's rise toward the limb, drew a Lambertian chord
     // through its filled valley (a ratio of 0.01: a sawtooth, wrongly).
     bool fitted = false;
     bool fitted_lambert = false;
     bool fitted_grazing = false;
+    bool fitted_dome = false;
+    double dome_a = 0.0, dome_p = 0.0, dome_q = 0.0;
     double fit_a = 0.0;
     double fit_b = 0.0;
     if (!one_sided) {
@@ -728,7 +749,39 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         const auto graze = line_fit([&](int k) {
           return 1.0 / std::max(std::cos(azimuth_of(k)), 0.05);
         });
-        if (graze[1] > 0.0 && graze[2] < straight[2] && !(lit[1] > 0.0 && lit[2] < graze[2])) {
+        // A dome of free centre, a + p·cos φ + q·sin φ = a + b·cos(φ − φ0):
+        // a Lambertian term seen through vignetting is brightest toward the
+        // image's centre, not at α, and neither the straight chord nor the
+        // Lambertian one at α follows it between peaks far apart (random
+        // scene 5109: a sawtooth 54° wide on a dome centred at −34° for
+        // α = −40.7°, 8-bit, vignetting 0.26, read a valley ratio of 0.28,
+        // a sinusoid). Kept only where its centre lies between the peaks'
+        // outside points and it fits the bins outside them at least twice
+        // as well as the other shapes: a dome bulges into the valley, and a
+        // dome the data do not ask for would empty a sinusoid's.
+        Eigen::MatrixXd design(bins.size(), 3);
+        Eigen::VectorXd level(bins.size());
+        for (std::size_t r = 0; r < bins.size(); ++r) {
+          design(r, 0) = 1.0;
+          design(r, 1) = std::cos(azimuth_of(bins[r]));
+          design(r, 2) = std::sin(azimuth_of(bins[r]));
+          level(r) = s[bins[r]];
+        }
+        const Eigen::Vector3d dome = design.colPivHouseholderQr().solve(level);
+        const double dome_rss = (design * dome - level).squaredNorm();
+        const double dome_at = std::atan2(dome(2), dome(1));
+        double other_rss = straight[2];
+        if (lit[1] > 0.0) other_rss = std::min(other_rss, lit[2]);
+        if (graze[1] > 0.0) other_rss = std::min(other_rss, graze[2]);
+        const bool dome_kept = std::hypot(dome(1), dome(2)) > 0.0 &&
+                               dome_at > azimuth_of(out_l) && dome_at < azimuth_of(out_r) &&
+                               dome_rss < kDomeRssShare * other_rss;
+        if (dome_kept) {
+          fitted = fitted_dome = true;
+          dome_a = dome(0);
+          dome_p = dome(1);
+          dome_q = dome(2);
+        } else if (graze[1] > 0.0 && graze[2] < straight[2] && !(lit[1] > 0.0 && lit[2] < graze[2])) {
           fitted = fitted_grazing = true;
           fit_a = graze[0];
           fit_b = graze[1];
@@ -746,6 +799,9 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     auto chord = [&](int k) {
       if (one_sided) {
         return dark + dark_lambert * std::max(0.0, std::cos(azimuth_of(k) - phase_angle_rad));
+      }
+      if (fitted_dome) {
+        return dome_a + dome_p * std::cos(azimuth_of(k)) + dome_q * std::sin(azimuth_of(k));
       }
       if (fitted_grazing) return fit_a + fit_b / std::max(std::cos(azimuth_of(k)), 0.05);
       if (fitted_lambert) {

@@ -173,6 +173,38 @@ TEST(PeakPickingTest, BootstrapIsSeededAndCanBeTurnedOff) {
   EXPECT_GE(a.peaks.spacing_stderr_rad, plain->spacing_stderr_rad);
 }
 
+// A sawtooth at −115° under a strong diffuse dome (random scene 4047:
+// m = 0.60, diffuse 0.19): its inner caustic stands 1° inside the
+// terminator and its outer beyond the limb. The window searched runs into
+// both; cut to where the grazing scatter keeps its law, it held only the
+// dome's flank, read as one peak: SMOOTH. One peak in the cut window is no
+// evidence of a smooth lobe, so the photograph is refused.
+TEST(PeakPickingTest, OnePeakInTheCutWindowIsRefusedNotSmooth) {
+  RenderScene scene = Scene(ProfileModel::kSawtooth, 0.6046, 4047);
+  scene.wavelength_mm = 3.1427;
+  scene.amplitude_mm = 0.47498;
+  scene.phase_angle_deg = -114.93;
+  scene.diffuse = 0.187;
+  scene.source_blur_deg = 0.34;
+  scene.exposure = 0.0075;
+  absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  ASSERT_TRUE(rendered.ok()) << rendered.status();
+  const Image luminance = Luminance(rendered->image);
+  absl::StatusOr<CylinderGeometry> geometry =
+      DetectCylinder(luminance, CylinderDetectionOptions());
+  ASSERT_TRUE(geometry.ok()) << geometry.status();
+  absl::StatusOr<Profile> profile =
+      ExtractProfile(luminance, *geometry, Projection(), ProfileOptions());
+  ASSERT_TRUE(profile.ok()) << profile.status();
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(*profile, scene.phase_angle_deg * kDeg, Projection(), PeakPickingOptions());
+  if (p.ok()) {
+    EXPECT_NE(p->model, ProfileModel::kSmooth);
+  } else {
+    EXPECT_NE(p.status().message().find("not isolated"), std::string::npos) << p.status();
+  }
+}
+
 // A profile of num_blocks identical row blocks holding the analytic
 // radiance (no comb, no noise) plus `extra`(φ) on bins of width bin_deg.
 Profile AnalyticProfile(const RadianceParams<double>& params, double bin_deg,
@@ -345,6 +377,42 @@ TEST(PeakPickingTest, AStrongGrazingScatterAtOneHundredTenDegreesLeavesTheLobeIs
   const double truth = 2.0 * std::atan(0.2356) / kDeg;
   EXPECT_NEAR(p->spacing_rad / kDeg, truth, 1.0);
   EXPECT_LE(std::fabs(p->spacing_rad / kDeg - truth), 3.0 * p->spacing_stderr_rad / kDeg);
+}
+
+// A sawtooth's two narrow caustic peaks on a strong diffuse dome seen
+// through vignetting: the Lambertian term, brightest at α, is darkened
+// toward the image's edges, so the dome peaks nearer the image's centre
+// (random scene 5109: −34° for α = −40.7°, 8-bit, diffuse 0.08, vignetting
+// 0.26). Neither a straight chord nor a + b·cos(φ − α) follows it between
+// the peaks 54° apart; the dome filled the empty valley and the sawtooth
+// was called a sinusoid. The chord may now be a dome of free centre.
+TEST(PeakPickingTest, ASawtoothOnAVignettedDiffuseDomeStaysASawtooth) {
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSawtooth;
+  params.max_slope = 0.507;
+  params.mirror_rad = -20.33 * kDeg;
+  params.blur_rad = 0.3 * kDeg;
+  params.scale = 0.002;
+  params.phase_angle_rad = -40.67 * kDeg;
+  double top = 0.0;
+  for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
+    top = std::max(top, Radiance(params, phi));
+  }
+  // Lambertian, then the renderer's vignetting, 1 − v·r²/r²(corner) with
+  // v = 0.26, averaged over the rows: for scene 5109's 414 px radius in a
+  // 1024×768 frame, 0.97 − 0.11·(sin φ − 0.075)².
+  auto dome = [&](double phi) {
+    const double lit = std::max(0.0, std::cos(phi - params.phase_angle_rad));
+    const double x = std::sin(phi) - 0.075;
+    return 2.5 * top * lit * (0.97 - 0.11 * x * x);
+  };
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(AnalyticProfile(params, 0.25, dome), params.phase_angle_rad, Projection(),
+                PeakPickingOptions());
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->split_resolved);
+  EXPECT_EQ(p->model, ProfileModel::kSawtooth) << p->valley_ratio << " " << p->caustic_asymmetry;
+  EXPECT_NEAR(p->spacing_rad / kDeg, 2.0 * std::atan(0.507) / kDeg, 0.5);
 }
 
 TEST(PeakPickingTest, ErrorsForProfilesWithoutALobe) {
