@@ -143,6 +143,8 @@ constexpr double kCombSinusoidShare = 0.5;
 // Within this of the terminator and of the limb, threads shadow and mask
 // each other and the grazing scatter departs from its 1/cos φ (PickPeaks).
 constexpr double kGrazingMarginDeg = 8.0;
+// The widest single peak read as a smooth glossy lobe (PickPeaks), deg.
+constexpr double kMaxSinglePeakFwhmDeg = 30.0;
 // The valley's chord is a dome of free centre where its sum of squares
 // outside the peaks is at most this share of the other shapes' (PickPeaks).
 constexpr double kDomeRssShare = 0.5;
@@ -1178,6 +1180,19 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     int r = top_index;
     while (r < hi && excess[r] > half_level) ++r;
     result.single_peak_fwhm_rad = (r - l) * bin;
+    // A smooth glossy lobe is narrow (DESIGN.md §3): 1-6.5° wide at half
+    // height on weavefit's own smooth renders, 5-15° on independently
+    // rendered ones with 2-6° of microfacet roughness. Far wider, the one
+    // peak is the body's diffuse dome, and the specular lobe, if any, is
+    // lost in it (random scene 5229: a sinusoid 64° wide at 300 photons
+    // under diffuse 0.12, its glints below the noise, read as a 49° SMOOTH).
+    if (result.single_peak_fwhm_rad > kMaxSinglePeakFwhmDeg * kDeg) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "no specular lobe stands out: the one peak near half the phase angle is %.1f deg "
+          "wide at half its height, far wider than a smooth glossy lobe, so it is the "
+          "body's diffuse light; expose for the specular glints (or check the phase angle)",
+          result.single_peak_fwhm_rad / kDeg));
+    }
     std::vector<double> mirrors;
     for (int k = 0; k < options.bootstrap_samples; ++k) {
       mirrors.push_back(azimuth_of(NearestPeak(resample(), peak, 3.0)));

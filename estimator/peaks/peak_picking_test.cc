@@ -428,6 +428,17 @@ TEST(PeakPickingTest, ErrorsForProfilesWithoutALobe) {
   EXPECT_NE(std::string(p.status().message()).find("specular"), std::string::npos)
       << p.status();
 
+  // The body's diffuse dome alone (a specular lobe lost in it): one peak,
+  // far wider than a smooth glossy lobe, is no lobe.
+  params.diffuse = 0.1;
+  params.phase_angle_rad = 22.0 * kDeg;
+  absl::StatusOr<PeakPickingResult> dome =
+      PickPeaks(AnalyticProfile(params, 0.25), 22.0 * kDeg, Projection(), PeakPickingOptions());
+  ASSERT_FALSE(dome.ok()) << static_cast<int>(dome->model) << " " << dome->single_peak_fwhm_rad;
+  EXPECT_NE(std::string(dome.status().message()).find("no specular lobe stands out"),
+            std::string::npos)
+      << dome.status();
+
   // Too short or inconsistent.
   Profile shorter = flat;
   shorter.block_sum.pop_back();
