@@ -700,10 +700,11 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // Both outside points in view: the chord is fitted to every bin outside
     // them within kChordReachDeg (not at the limbs' edges, not clipped), as
     // the best of a straight line, a + b·max(0, cos(φ − α)) and a + b/cos φ
-    // with b > 0, and a dome of free centre (below), by the sum of squares. Two points alone let one bin set it: a steep
-    // fine sinusoid at −73° (scene 4183), its left outside point still on
-    // the grazing scatter's rise toward the limb, drew a Lambertian chord
-    // through its filled valley (a ratio of 0.01: a sawtooth, wrongly).
+    // with b > 0, and a dome of free centre (below), by the sum of squares.
+    // Two points alone let one bin set it: a steep fine sinusoid at −73°
+    // (scene 4183), its left outside point still on the grazing scatter's
+    // rise toward the limb, drew a Lambertian chord through its filled
+    // valley (a ratio of 0.01: a sawtooth, wrongly).
     bool fitted = false;
     bool fitted_lambert = false;
     bool fitted_grazing = false;
@@ -783,7 +784,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
           dome_a = dome(0);
           dome_p = dome(1);
           dome_q = dome(2);
-        } else if (graze[1] > 0.0 && graze[2] < straight[2] && !(lit[1] > 0.0 && lit[2] < graze[2])) {
+        } else if (graze[1] > 0.0 && graze[2] < straight[2] &&
+                   !(lit[1] > 0.0 && lit[2] < graze[2])) {
           fitted = fitted_grazing = true;
           fit_a = graze[0];
           fit_b = graze[1];
@@ -1038,11 +1040,11 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
                          valley_share < kCombSinusoidShare + kCombTrimmedAmbiguity))) {
           return absl::InvalidArgumentError(absl::StrFormat(
               "the specular lobe stands out only from a baseline drawn away from the "
-              "terminator and the limb (a strong grazing scatter); its comb of glints (%d maxima, median "
-              "spacing %.2f deg) reads %.2f of the way from a sawtooth's level between the "
-              "peaks to a sinusoid's, and %d glint lines of the scatter stand beside the lobe, "
-              "so the profile cannot be told (they can fill or empty that level); photograph "
-              "at a smaller phase angle",
+              "terminator and the limb (a strong grazing scatter); its comb of glints (%d "
+              "maxima, median spacing %.2f deg) reads %.2f of the way from a sawtooth's level "
+              "between the peaks to a sinusoid's, and %d glint lines of the scatter stand "
+              "beside the lobe, so the profile cannot be told (they can fill or empty that "
+              "level); photograph at a smaller phase angle",
               static_cast<int>(teeth.size()), gap / kDeg, valley_share, outer_teeth));
         }
         result.model = valley_share >= kCombSinusoidShare ? ProfileModel::kSinusoid
