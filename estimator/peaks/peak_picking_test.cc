@@ -39,33 +39,43 @@ RenderScene Scene(ProfileModel model, double max_slope, std::uint32_t seed) {
   return scene;
 }
 
+Projection SceneProjection(const RenderScene& scene) {
+  return Projection{scene.diameter_mm / 2.0, scene.camera_distance_mm};
+}
+
 struct Analysis {
   RenderTruth truth;
   Profile profile;
   PeakPickingResult peaks;
 };
 
-// The whole chain up to the peaks; fails the test on any error.
-Analysis Analyse(const RenderScene& scene,
-                 const PeakPickingOptions& options = PeakPickingOptions()) {
-  Analysis out;
+// The chain up to the profile (render, detect, extract); fails the test on
+// any error and returns false then.
+bool RenderProfile(const RenderScene& scene, Analysis* out) {
   absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
   EXPECT_TRUE(rendered.ok()) << rendered.status();
-  if (!rendered.ok()) return out;
-  out.truth = rendered->truth;
+  if (!rendered.ok()) return false;
+  out->truth = rendered->truth;
   const Image luminance = Luminance(rendered->image);
   absl::StatusOr<CylinderGeometry> geometry =
       DetectCylinder(luminance, CylinderDetectionOptions());
   EXPECT_TRUE(geometry.ok()) << geometry.status();
-  if (!geometry.ok()) return out;
-  const Projection projection{scene.diameter_mm / 2.0, scene.camera_distance_mm};
+  if (!geometry.ok()) return false;
   absl::StatusOr<Profile> profile =
-      ExtractProfile(luminance, *geometry, projection, ProfileOptions());
+      ExtractProfile(luminance, *geometry, SceneProjection(scene), ProfileOptions());
   EXPECT_TRUE(profile.ok()) << profile.status();
-  if (!profile.ok()) return out;
-  out.profile = *profile;
+  if (!profile.ok()) return false;
+  out->profile = *profile;
+  return true;
+}
+
+// The whole chain up to the peaks; fails the test on any error.
+Analysis Analyse(const RenderScene& scene,
+                 const PeakPickingOptions& options = PeakPickingOptions()) {
+  Analysis out;
+  if (!RenderProfile(scene, &out)) return out;
   absl::StatusOr<PeakPickingResult> peaks =
-      PickPeaks(*profile, scene.phase_angle_deg * kDeg, projection, options);
+      PickPeaks(out.profile, scene.phase_angle_deg * kDeg, SceneProjection(scene), options);
   EXPECT_TRUE(peaks.ok()) << peaks.status();
   if (peaks.ok()) out.peaks = *peaks;
   return out;
@@ -187,17 +197,10 @@ TEST(PeakPickingTest, OnePeakInTheCutWindowIsRefusedNotSmooth) {
   scene.diffuse = 0.187;
   scene.source_blur_deg = 0.34;
   scene.exposure = 0.0075;
-  absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
-  ASSERT_TRUE(rendered.ok()) << rendered.status();
-  const Image luminance = Luminance(rendered->image);
-  absl::StatusOr<CylinderGeometry> geometry =
-      DetectCylinder(luminance, CylinderDetectionOptions());
-  ASSERT_TRUE(geometry.ok()) << geometry.status();
-  absl::StatusOr<Profile> profile =
-      ExtractProfile(luminance, *geometry, Projection(), ProfileOptions());
-  ASSERT_TRUE(profile.ok()) << profile.status();
-  absl::StatusOr<PeakPickingResult> p =
-      PickPeaks(*profile, scene.phase_angle_deg * kDeg, Projection(), PeakPickingOptions());
+  Analysis a;
+  ASSERT_TRUE(RenderProfile(scene, &a));
+  absl::StatusOr<PeakPickingResult> p = PickPeaks(a.profile, scene.phase_angle_deg * kDeg,
+                                                  SceneProjection(scene), PeakPickingOptions());
   if (p.ok()) {
     EXPECT_NE(p->model, ProfileModel::kSmooth);
   } else {
