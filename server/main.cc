@@ -2,9 +2,11 @@
 #include <glog/logging.h>
 #include <malloc.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -29,6 +31,12 @@ int main(int argc, char** argv) {
   double max_upload_mb = 64.0;
   double max_call_mb = 256.0;
   double max_megapixels = 64.0;
+  double max_upload_memory_mb = 1024.0;
+  // Half the machine's memory by default: room for the uploads, gRPC and
+  // the system beside the estimates.
+  const double physical_mb = static_cast<double>(sysconf(_SC_PHYS_PAGES)) *
+                             static_cast<double>(sysconf(_SC_PAGE_SIZE)) / (1 << 20);
+  double memory_budget_mb = physical_mb > 0 ? std::floor(physical_mb / 2) : 4096.0;
   double grace_s = 30.0;
   std::string port_file;
   service.workers = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
@@ -50,6 +58,22 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::Range(0.001, 100000.0))->group(limits);
   app.add_option("--max-chunks", service.max_chunks, "most chunk messages in one call")
       ->capture_default_str()->check(CLI::Range(1, 100000000))->group(limits);
+  app.add_option("--max-uploads", service.max_uploads,
+                 "uploads in progress at once (each holds no estimation slot until complete); "
+                 "past that, RESOURCE_EXHAUSTED")
+      ->capture_default_str()->check(CLI::Range(1, 100000))->group(limits);
+  app.add_option("--max-upload-memory-mb", max_upload_memory_mb,
+                 "image bytes all uploads in progress and waiting may hold together, MiB; a "
+                 "chunk past that gets RESOURCE_EXHAUSTED")
+      ->capture_default_str()->check(CLI::Range(1.0, 1048576.0))->group(limits);
+  app.add_option("--upload-idle-s", service.upload_idle_s,
+                 "an upload that sends nothing for this long is cut with DEADLINE_EXCEEDED, s")
+      ->capture_default_str()->check(CLI::Range(0.01, 86400.0))->group(limits);
+  app.add_option("--memory-budget-mb", memory_budget_mb,
+                 "working memory of the estimates running at once, read from each image's "
+                 "header before decoding, MiB (default: half the machine's memory); a "
+                 "photograph that needs more alone gets RESOURCE_EXHAUSTED, others wait")
+      ->capture_default_str()->check(CLI::Range(16.0, 16777216.0))->group(limits);
   app.add_option("--max-concurrent,--workers", service.workers,
                  "estimates that run at once (default: one per core)")
       ->capture_default_str()->check(CLI::Range(1, 256))->group(limits);
@@ -105,6 +129,9 @@ int main(int argc, char** argv) {
   service.max_call_bytes = std::max(service.max_upload_bytes,
                                     static_cast<std::int64_t>(max_call_mb * (1 << 20)));
   service.estimate.max_pixels = static_cast<std::int64_t>(max_megapixels * 1e6);
+  service.max_upload_memory_bytes = std::max(
+      service.max_chunk_bytes, static_cast<std::int64_t>(max_upload_memory_mb * (1 << 20)));
+  service.memory_budget_bytes = static_cast<std::int64_t>(memory_budget_mb * (1 << 20));
   if (!options.token_file.empty() && !options.tls() &&
       !weavefit::IsLoopbackAddress(options.listen)) {
     LOG(WARNING) << "bearer tokens will cross the network in clear text (no TLS)";

@@ -122,6 +122,9 @@ void RunningServer::Shutdown(std::chrono::milliseconds grace) {
   }
   SetReady(false);
   if (server_) {  // null when StartServer failed before it was built
+    // Calls still in flight when the grace ends are cancelled by gRPC: the
+    // service logs them as cut by the shutdown.
+    service_->BeginShutdown(std::chrono::steady_clock::now() + grace);
     server_->Shutdown(std::chrono::system_clock::now() + grace);
     server_->Wait();
   }
@@ -207,8 +210,12 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
             << (options.tls_client_ca.empty() ? "" : ", client certificates required")
             << (running->auth_ ? ", bearer tokens" : "") << (reflection ? ", reflection" : "")
             << "), " << options.service.workers << " workers, queue "
-            << options.service.max_queue << ", upload limit " << options.service.max_upload_bytes
-            << " bytes, deadline " << options.service.deadline_s << " s";
+            << options.service.max_queue << ", memory budget "
+            << options.service.memory_budget_bytes / (1 << 20) << " MiB, upload limit "
+            << options.service.max_upload_bytes << " bytes, " << options.service.max_uploads
+            << " uploads holding at most " << options.service.max_upload_memory_bytes / (1 << 20)
+            << " MiB, idle limit " << options.service.upload_idle_s << " s, deadline "
+            << options.service.deadline_s << " s";
   if (running->health_server_) {
     LOG(INFO) << "health only, plaintext, on " << options.health_listen << " (port "
               << running->health_port_ << ")";

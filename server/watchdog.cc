@@ -28,6 +28,14 @@ Watchdog::Guard::~Guard() {
   if (!expired_.load()) owner_->pending_.erase(entry_);
 }
 
+void Watchdog::Guard::MoveTo(Clock::time_point deadline) {
+  std::lock_guard<std::mutex> lock(owner_->mutex_);
+  if (expired_.load()) return;
+  owner_->pending_.erase(entry_);
+  entry_ = owner_->pending_.emplace(deadline, this);
+  owner_->changed_.notify_all();
+}
+
 void Watchdog::Run() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {

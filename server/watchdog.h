@@ -29,6 +29,9 @@ class Watchdog {
     Guard& operator=(const Guard&) = delete;
     // True once `expire` has run.
     bool expired() const { return expired_.load(); }
+    // Moves the deadline (an upload's idle limit after each message); no
+    // effect once expired.
+    void MoveTo(Clock::time_point deadline);
 
    private:
     friend class Watchdog;

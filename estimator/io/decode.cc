@@ -47,8 +47,16 @@ absl::StatusOr<ImageHeader> ReadPngHeader(const unsigned char* p,
   if (n < 24 || std::memcmp(p + 12, "IHDR", 4) != 0) {
     return Malformed("PNG", "no IHDR chunk (file truncated?)");
   }
-  return ImageHeader{"png", static_cast<int>(ReadBigEndian32(p + 16)),
+  ImageHeader header{"png", static_cast<int>(ReadBigEndian32(p + 16)),
                      static_cast<int>(ReadBigEndian32(p + 20))};
+  PngLayout layout;
+  if (ReadPngLayout(p, n, &layout).ok() && layout.SamplesPerPixel() > 0) {
+    // A palette is expanded to BGR by OpenCV, the only path that reads it.
+    header.samples = layout.color_type == 3 ? 3 : layout.SamplesPerPixel();
+    header.bytes_per_sample = layout.bit_depth == 16 ? 2 : 1;
+    header.whole_copy = !layout.RowReadable();
+  }
+  return header;
 }
 
 // Walks the PNG chunk list: every chunk must fit in the data and the list
@@ -82,7 +90,10 @@ absl::StatusOr<ImageHeader> ReadJpegHeader(const unsigned char* p,
       if (i + 9 > n) break;
       const int height = (p[i + 5] << 8) | p[i + 6];
       const int width = (p[i + 7] << 8) | p[i + 8];
-      return ImageHeader{"jpeg", width, height};
+      ImageHeader header{"jpeg", width, height};
+      header.bytes_per_sample = p[i + 4] > 8 ? 2 : 1;
+      if (i + 10 <= n) header.samples = p[i + 9];
+      return header;
     }
     if (length < 2) return Malformed("JPEG", "segment length below 2");
     i += 2 + length;
@@ -182,7 +193,9 @@ absl::StatusOr<ImageHeader> ReadExrHeader(const std::string& bytes) {
       if (width <= 0 || height <= 0 || width > (1 << 30) || height > (1 << 30)) {
         return Malformed("EXR", "data window is empty or absurd");
       }
-      return ImageHeader{"exr", static_cast<int>(width), static_cast<int>(height)};
+      ImageHeader header{"exr", static_cast<int>(width), static_cast<int>(height)};
+      header.whole_copy = false;  // read straight into the float image
+      return header;
     }
     at += size;
   }
@@ -429,6 +442,19 @@ absl::Status DecodeOptions::Validate() const {
     return absl::InvalidArgumentError("max_pixels must be > 0");
   }
   return absl::OkStatus();
+}
+
+std::int64_t DecodedBytes(const ImageHeader& header) {
+  const std::int64_t pixels =
+      std::max<std::int64_t>(0, header.width) * std::max<std::int64_t>(0, header.height);
+  // Unknown layouts at the most a format here allows: 4 samples of 32 bits.
+  const std::int64_t samples = header.samples > 0 ? std::min(header.samples, 4) : 4;
+  const std::int64_t bytes_per_sample =
+      header.bytes_per_sample > 0 ? std::min(header.bytes_per_sample, 4) : 4;
+  const std::int64_t copy = header.whole_copy ? samples * bytes_per_sample : 0;
+  const std::int64_t image = (header.samples > 0 && header.samples < 3 ? 1 : 3) * 4;
+  const std::int64_t mask = 1;
+  return pixels * (copy + image + mask);
 }
 
 absl::StatusOr<ImageHeader> ReadImageHeader(const std::string& bytes) {

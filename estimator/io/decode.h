@@ -32,7 +32,22 @@ struct ImageHeader {
   std::string format;  // "png", "tiff", "jpeg", "exr"
   int width = 0;
   int height = 0;
+  // Samples per pixel as stored (alpha included) and bytes per sample, when
+  // the header says (0 = unknown: DecodedBytes then assumes the most a
+  // format allows).
+  int samples = 0;
+  int bytes_per_sample = 0;
+  // Whether the decoder holds a whole decoded copy besides the float image
+  // (OpenCV's path); PNG read row by row and EXR read into the float image
+  // do not.
+  bool whole_copy = true;
 };
+
+// The most bytes DecodeImage holds at once for a photograph with this
+// header: the decoder's whole copy (when it makes one), the linear float
+// image (1 or 3 channels) and a saturation mask as large as the image, at
+// worst. Overflow-free for any header (dimensions below 2^31).
+std::int64_t DecodedBytes(const ImageHeader& header);
 
 // Recognises the format by its signature and reads the dimensions.
 // INVALID_ARGUMENT for an empty, unknown or malformed header.

@@ -1072,6 +1072,9 @@ absl::Status Acquisition::Validate() const {
 
 absl::Status EstimateOptions::Validate() const {
   if (max_pixels <= 0) return absl::InvalidArgumentError("max_pixels must be > 0");
+  if (max_working_bytes < 0) {
+    return absl::InvalidArgumentError("max_working_bytes must be >= 0 (0 = no limit)");
+  }
   if (absl::Status s = detection.Validate(); !s.ok()) return s;
   if (absl::Status s = profile.Validate(); !s.ok()) return s;
   if (absl::Status s = glints.Validate(); !s.ok()) return s;
@@ -1143,6 +1146,25 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
 
 namespace {
 
+std::int64_t WorkingBytes(const ImageHeader& header) {
+  const std::int64_t pixels = std::int64_t{header.width} * header.height;
+  const bool colour = header.samples == 0 || header.samples >= 3;
+  return DecodedBytes(header) + (colour ? 4 : 0) * pixels + 4 * pixels;
+}
+
+absl::Status CheckWorkingBytes(const std::string& bytes, const EstimateOptions& options) {
+  if (options.max_working_bytes == 0) return absl::OkStatus();
+  absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
+  if (!header.ok()) return header.status();
+  const std::int64_t need = WorkingBytes(*header);
+  if (need <= options.max_working_bytes) return absl::OkStatus();
+  return absl::ResourceExhaustedError(absl::StrFormat(
+      "estimating this %dx%d %s photograph takes about %.0f MiB, more than the %.0f MiB "
+      "allowed (the daemon's --memory-budget-mb)",
+      header->width, header->height, header->format, need / 1048576.0,
+      options.max_working_bytes / 1048576.0));
+}
+
 // Decodes `bytes` and runs the pipeline; `release`, when given, is the
 // caller's copy of the bytes, emptied once decoded.
 absl::StatusOr<Estimate> DecodeAndEstimate(const std::string& bytes, std::string* release,
@@ -1150,6 +1172,7 @@ absl::StatusOr<Estimate> DecodeAndEstimate(const std::string& bytes, std::string
                                            const EstimateOptions& options) {
   if (absl::Status s = acquisition.Validate(); !s.ok()) return s;
   if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (absl::Status s = CheckWorkingBytes(bytes, options); !s.ok()) return s;
   Estimate estimate;
   StageClock clock(options.interrupt);
   DecodeOptions decode;
@@ -1166,6 +1189,12 @@ absl::StatusOr<Estimate> DecodeAndEstimate(const std::string& bytes, std::string
 }
 
 }  // namespace
+
+absl::StatusOr<std::int64_t> EstimateWorkingBytes(const std::string& bytes) {
+  absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
+  if (!header.ok()) return header.status();
+  return WorkingBytes(*header);
+}
 
 absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
                                            const Acquisition& acquisition,

@@ -46,6 +46,9 @@ enum class Mode { kFast = 1, kBalanced = 2, kAccurate = 3 };
 struct EstimateOptions {
   Mode mode = Mode::kBalanced;
   std::int64_t max_pixels = 64LL * 1024 * 1024;  // decoded width × height
+  // Largest EstimateWorkingBytes a photograph may need, bytes (0 = no
+  // limit): checked from the file's header before any pixel is decoded.
+  std::int64_t max_working_bytes = 0;
   CylinderDetectionOptions detection;
   ProfileOptions profile;
   PeakPickingOptions peaks;
@@ -178,9 +181,17 @@ struct Estimate {
   std::string BriefReport() const;
 };
 
+// The most memory an estimate of this encoded photograph holds at once,
+// bytes, from its header alone: what decoding holds (DecodedBytes), the
+// luminance copy of a colour image, and the detection's and profile's
+// working arrays (a float per pixel at most). The daemon admits estimates
+// against its memory budget with it. INVALID_ARGUMENT for an unreadable
+// header.
+absl::StatusOr<std::int64_t> EstimateWorkingBytes(const std::string& bytes);
+
 // Estimates from an encoded file. INVALID_ARGUMENT for undecodable or
 // inconsistent input (including "no cylinder found"), RESOURCE_EXHAUSTED when
-// the image exceeds options.max_pixels.
+// the image exceeds options.max_pixels or options.max_working_bytes.
 absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
                                            const Acquisition& acquisition,
                                            const EstimateOptions& options);
