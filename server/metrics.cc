@@ -94,9 +94,9 @@ void Metrics::CountRequest(const std::string& method, const std::string& code) {
   ++requests_[{method, code}];
 }
 
-void Metrics::SetQueueDepthSource(std::function<int()> source) {
+void Metrics::SetLoadSource(std::function<Load()> source) {
   std::lock_guard<std::mutex> lock(mutex_);
-  queue_depth_ = std::move(source);
+  load_ = std::move(source);
 }
 
 std::string Metrics::Render() const {
@@ -104,22 +104,34 @@ std::string Metrics::Render() const {
   absl::StrAppend(&out,
                   "# HELP weavefit_requests_total Finished calls by method and gRPC status code.\n"
                   "# TYPE weavefit_requests_total counter\n");
-  int queue_depth = 0;
+  Load load;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& [key, count] : requests_) {
       absl::StrAppend(&out, "weavefit_requests_total{method=\"", key.first, "\",code=\"",
                       key.second, "\"} ", count, "\n");
     }
-    if (queue_depth_) queue_depth = queue_depth_();
+    if (load_) load = load_();
   }
   absl::StrAppend(&out,
                   "# HELP weavefit_requests_in_flight Calls being read, queued or estimated.\n"
                   "# TYPE weavefit_requests_in_flight gauge\n"
                   "weavefit_requests_in_flight ", in_flight_.load(), "\n",
-                  "# HELP weavefit_queue_depth Admitted calls not yet holding a worker.\n"
+                  "# HELP weavefit_queue_depth Complete uploads admitted, not yet holding a "
+                  "worker.\n"
                   "# TYPE weavefit_queue_depth gauge\n"
-                  "weavefit_queue_depth ", queue_depth, "\n");
+                  "weavefit_queue_depth ", load.queue_depth, "\n");
+  absl::StrAppend(&out,
+                  "# HELP weavefit_uploads_in_progress Calls still receiving their upload.\n"
+                  "# TYPE weavefit_uploads_in_progress gauge\n"
+                  "weavefit_uploads_in_progress ", load.uploads, "\n",
+                  "# HELP weavefit_upload_bytes_held Image bytes received and not yet decoded.\n"
+                  "# TYPE weavefit_upload_bytes_held gauge\n"
+                  "weavefit_upload_bytes_held ", load.upload_bytes, "\n",
+                  "# HELP weavefit_estimate_memory_bytes Working memory reserved by the running "
+                  "estimates (against --memory-budget-mb).\n"
+                  "# TYPE weavefit_estimate_memory_bytes gauge\n"
+                  "weavefit_estimate_memory_bytes ", load.memory_bytes, "\n");
   const std::pair<const char*, const Histogram*> histograms[] = {
       {"weavefit_queue_seconds", &queue_seconds},
       {"weavefit_decode_seconds", &decode_seconds},

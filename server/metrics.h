@@ -6,6 +6,7 @@
 #define WEAVEFIT_SERVER_METRICS_H_
 
 #include <atomic>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -44,8 +45,14 @@ class Metrics {
   // gRPC status code name ("OK", "INVALID_ARGUMENT", ...).
   void CountRequest(const std::string& method, const std::string& code);
   void AddInFlight(int delta) { in_flight_ += delta; }
-  // Read at render time (the admission queue's depth).
-  void SetQueueDepthSource(std::function<int()> source);
+  // What the service holds, read at render time.
+  struct Load {
+    int queue_depth = 0;             // complete uploads waiting for a worker
+    int uploads = 0;                 // uploads in progress
+    std::int64_t upload_bytes = 0;   // image bytes uploads hold (until decoded)
+    std::int64_t memory_bytes = 0;   // working memory of the running estimates
+  };
+  void SetLoadSource(std::function<Load()> source);
 
   Histogram queue_seconds;     // admitted until a worker slot is held
   Histogram decode_seconds;    // decoding the upload
@@ -59,7 +66,7 @@ class Metrics {
   mutable std::mutex mutex_;
   std::map<std::pair<std::string, std::string>, long long> requests_;
   std::atomic<int> in_flight_{0};
-  std::function<int()> queue_depth_;
+  std::function<Load()> load_;
 };
 
 // GET /metrics on `listen` (host:port; port 0 = any free port), from a

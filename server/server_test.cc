@@ -212,13 +212,16 @@ TEST(MetricsTest, RendersPrometheusTextWithCumulativeBuckets) {
   metrics.request_seconds.Observe(0.004);
   metrics.request_seconds.Observe(0.2);
   metrics.request_seconds.Observe(500.0);
-  metrics.SetQueueDepthSource([] { return 3; });
+  metrics.SetLoadSource([] { return Metrics::Load{3, 60, 60, 1 << 20}; });
   metrics.AddInFlight(2);
   const std::string text = metrics.Render();
   EXPECT_TRUE(absl::StrContains(text, "weavefit_requests_total{method=\"Estimate\",code=\"OK\"} 2\n"));
   EXPECT_TRUE(absl::StrContains(
       text, "weavefit_requests_total{method=\"Estimate\",code=\"UNAUTHENTICATED\"} 1\n"));
   EXPECT_TRUE(absl::StrContains(text, "weavefit_queue_depth 3\n"));
+  EXPECT_TRUE(absl::StrContains(text, "weavefit_uploads_in_progress 60\n"));
+  EXPECT_TRUE(absl::StrContains(text, "weavefit_upload_bytes_held 60\n"));
+  EXPECT_TRUE(absl::StrContains(text, "weavefit_estimate_memory_bytes 1048576\n"));
   EXPECT_TRUE(absl::StrContains(text, "weavefit_requests_in_flight 2\n"));
   EXPECT_TRUE(absl::StrContains(text, "weavefit_request_seconds_bucket{le=\"0.0025\"} 0\n"));
   EXPECT_TRUE(absl::StrContains(text, "weavefit_request_seconds_bucket{le=\"0.005\"} 1\n"));

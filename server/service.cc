@@ -187,12 +187,15 @@ WeaveFitService::WeaveFitService(ServiceOptions options, const Authenticator* au
     options_.estimate.max_working_bytes = options_.memory_budget_bytes;
   }
   if (metrics_ != nullptr) {
-    metrics_->SetQueueDepthSource([this] { return admission_.queued(); });
+    metrics_->SetLoadSource([this] {
+      return Metrics::Load{admission_.queued(), upload_limits_.uploads(),
+                           upload_limits_.held_bytes(), admission_.memory_in_use()};
+    });
   }
 }
 
 WeaveFitService::~WeaveFitService() {
-  if (metrics_ != nullptr) metrics_->SetQueueDepthSource(nullptr);
+  if (metrics_ != nullptr) metrics_->SetLoadSource(nullptr);
 }
 
 void WeaveFitService::BeginShutdown(Clock::time_point grace_end) {
