@@ -15,6 +15,7 @@
 #include "server/service.h"
 
 namespace grpc {
+class CallbackGenericService;
 class Server;
 }  // namespace grpc
 
@@ -37,7 +38,7 @@ struct ServerOptions {
   // A non-loopback address without TLS is refused unless this is set.
   bool insecure_remote = false;
   // Server reflection exposes the whole schema: on for a loopback address,
-  // elsewhere only when asked.
+  // elsewhere only when asked (see ServesReflection).
   bool reflection = false;
   // host:port of the Prometheus endpoint; empty = off.
   std::string metrics_listen;
@@ -48,6 +49,8 @@ struct ServerOptions {
   ServiceOptions service;
 
   bool tls() const { return !tls_cert.empty(); }
+  // On the --listen port only; never on the health port.
+  bool ServesReflection() const;
   absl::Status Validate() const;
 };
 
@@ -78,7 +81,10 @@ class RunningServer {
   std::unique_ptr<MetricsEndpoint> metrics_endpoint_;
   std::unique_ptr<WeaveFitService> service_;
   std::unique_ptr<grpc::Server> server_;
-  std::unique_ptr<grpc::Server> health_server_;  // --health-listen
+  // --health-listen: the server, and what answers it for any other service
+  // (declared first so that it outlives the server).
+  std::unique_ptr<grpc::CallbackGenericService> health_unimplemented_;
+  std::unique_ptr<grpc::Server> health_server_;
   int health_port_ = 0;
   std::thread warm_up_;  // builds the FLANN bank, then declares readiness
   std::mutex readiness_mutex_;  // orders draining_ with SetReady
