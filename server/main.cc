@@ -77,14 +77,16 @@ int main(int argc, char** argv) {
                  "'authorization: Bearer <token>'. Re-read on SIGHUP")
       ->check(CLI::ExistingFile)->group(access);
   app.add_flag("--insecure-remote", options.insecure_remote,
-               "allow a non-loopback --listen without TLS (trusted networks only)")
+               "allow a non-loopback --listen without TLS, and a non-loopback --metrics-listen "
+               "(always plaintext); trusted networks only")
       ->group(access);
   app.add_flag("--reflection", options.reflection,
                "serve gRPC reflection on a non-loopback address too (always on for loopback)")
       ->group(access);
   auto* operation = "Operation";
   app.add_option("--metrics-listen", options.metrics_listen,
-                 "host:port for Prometheus metrics at /metrics (off when empty)")
+                 "host:port for Prometheus metrics at /metrics, plaintext HTTP (off when "
+                 "empty); an address other than loopback needs --insecure-remote")
       ->group(operation);
   app.add_option("--health-listen", options.health_listen,
                  "host:port of a plaintext port serving only grpc.health.v1, for probes that "

@@ -68,6 +68,13 @@ class WithoutReflection : public grpc::ServerBuilderOption {
   }
 };
 
+// INVALID_ARGUMENT unless `address` (the value of `flag`) is host:port.
+absl::Status CheckHostPort(const char* flag, const std::string& address) {
+  if (!address.empty() && address.find(':') != std::string::npos) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(flag, " must be host:port, got '", address, "'"));
+}
+
 // The plaintext --health-listen server: grpc.health.v1 and nothing else.
 // gRPC 1.51's default health service is a callback service that
 // Server::Start adds only after BuildAndStart has refused a server without a
@@ -128,10 +135,7 @@ bool ServerOptions::ServesReflection() const {
 }
 
 absl::Status ServerOptions::Validate() const {
-  if (listen.empty() || listen.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("listen must be host:port, got '", listen, "'"));
-  }
+  if (absl::Status s = CheckHostPort("--listen", listen); !s.ok()) return s;
   if (tls_cert.empty() != tls_key.empty()) {
     return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
   }
@@ -143,13 +147,20 @@ absl::Status ServerOptions::Validate() const {
         "refusing to listen on ", listen, " without TLS: give --tls-cert and --tls-key, "
         "or --insecure-remote on a network you trust"));
   }
-  if (!health_listen.empty() && health_listen.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("health listen must be host:port, got '", health_listen, "'"));
+  // The health port may be anywhere: the kubelet probes it from the node,
+  // and it serves nothing but grpc.health.v1.
+  if (!health_listen.empty()) {
+    if (absl::Status s = CheckHostPort("--health-listen", health_listen); !s.ok()) return s;
   }
-  if (!metrics_listen.empty() && metrics_listen.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("metrics listen must be host:port, got '", metrics_listen, "'"));
+  if (!metrics_listen.empty()) {
+    if (absl::Status s = CheckHostPort("--metrics-listen", metrics_listen); !s.ok()) return s;
+    // Metrics have no TLS, so TLS on the gRPC port does not cover them.
+    if (!IsLoopbackAddress(metrics_listen) && !insecure_remote) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "refusing to serve metrics in plaintext on ", metrics_listen,
+          ": give --metrics-listen a loopback address, or --insecure-remote on a network "
+          "you trust"));
+    }
   }
   return service.Validate();
 }

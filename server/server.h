@@ -35,16 +35,19 @@ struct ServerOptions {
   std::string tls_client_ca;
   // Bearer tokens, one per line; empty = no token check.
   std::string token_file;
-  // A non-loopback address without TLS is refused unless this is set.
+  // A non-loopback listen without TLS, or a non-loopback metrics_listen, is
+  // refused unless this is set.
   bool insecure_remote = false;
   // Server reflection exposes the whole schema: on for a loopback address,
   // elsewhere only when asked (see ServesReflection).
   bool reflection = false;
-  // host:port of the Prometheus endpoint; empty = off.
+  // host:port of the Prometheus endpoint (plaintext HTTP); empty = off. A
+  // non-loopback address needs insecure_remote, TLS or not.
   std::string metrics_listen;
   // host:port of a plaintext port that serves only grpc.health.v1 (liveness
   // and readiness), for probes that cannot speak TLS (Kubernetes' grpc
-  // probe); empty = off.
+  // probe); empty = off. Allowed on any address: it tells only whether the
+  // daemon is up and ready.
   std::string health_listen;
   ServiceOptions service;
 

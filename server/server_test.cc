@@ -194,6 +194,27 @@ TEST(ServerOptionsTest, ANonLoopbackAddressNeedsTlsOrInsecureRemote) {
   EXPECT_TRUE(options.Validate().ok());
 }
 
+// Metrics are plaintext HTTP whatever the gRPC port speaks; the health port
+// stays allowed anywhere, for the node's probes.
+TEST(ServerOptionsTest, ANonLoopbackMetricsAddressNeedsInsecureRemote) {
+  ServerOptions options;
+  options.metrics_listen = "127.0.0.1:9464";
+  options.health_listen = "0.0.0.0:8081";
+  EXPECT_TRUE(options.Validate().ok());
+  options.metrics_listen = "0.0.0.0:9464";
+  const absl::Status refused = options.Validate();
+  EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(absl::StrContains(refused.message(), "--metrics-listen")) << refused;
+  EXPECT_TRUE(absl::StrContains(refused.message(), "--insecure-remote")) << refused;
+  options.listen = "0.0.0.0:50051";
+  options.tls_cert = "server.pem";
+  options.tls_key = "server.key";
+  EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument)
+      << "TLS on the gRPC port does not cover metrics";
+  options.insecure_remote = true;
+  EXPECT_TRUE(options.Validate().ok());
+}
+
 // The service behind an in-process channel.
 class InProcessService : public ::testing::Test {
  protected:

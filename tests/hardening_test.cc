@@ -94,6 +94,20 @@ TEST(Hardening, APlaintextNonLoopbackAddressIsRefusedUnlessInsecureRemote) {
   EXPECT_GT(allowed.port(), 0);
 }
 
+// Metrics are plaintext HTTP, so a non-loopback --metrics-listen follows the
+// gRPC port's rule even when that port has TLS. `timeout` keeps a daemon that
+// wrongly starts from holding the test until ctest's limit.
+TEST(Hardening, APlaintextNonLoopbackMetricsAddressIsRefusedUnlessInsecureRemote) {
+  const CommandResult refused = RunCommand({"/usr/bin/timeout", "20", WEAVEFITD_PATH, "--listen",
+                                            "127.0.0.1:0", "--metrics-listen", "0.0.0.0:0"});
+  EXPECT_EQ(refused.exit_code, 1) << refused.err;
+  EXPECT_TRUE(absl::StrContains(refused.err, "--metrics-listen")) << refused.err;
+  EXPECT_TRUE(absl::StrContains(refused.err, "--insecure-remote")) << refused.err;
+  Daemon allowed({"--metrics-listen", "0.0.0.0:0", "--insecure-remote"});
+  EXPECT_TRUE(allowed.running()) << allowed.Log();
+  EXPECT_TRUE(absl::StartsWith(HttpGet(allowed.metrics_port(), "/metrics"), "HTTP/1.1 200"));
+}
+
 // Startup failures are reported and exit 1; none may crash the daemon.
 TEST(Hardening, StartupFailuresExitWithTheirReason) {
   const std::string dir = MakeTempDir();
