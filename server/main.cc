@@ -12,6 +12,25 @@
 
 #include "server/server.h"
 
+namespace {
+
+// SIGHUP: re-reads the token file, and logs what that changed.
+void ReloadTokens(const weavefit::ServerOptions& options, weavefit::RunningServer& server) {
+  if (options.token_file.empty()) {
+    LOG(INFO) << "SIGHUP: no --token-file to re-read; nothing changed";
+    return;
+  }
+  const absl::StatusOr<int> tokens = server.ReloadTokens();
+  if (!tokens.ok()) {
+    LOG(ERROR) << "SIGHUP: " << tokens.status().message() << "; the previous tokens stay in force";
+    return;
+  }
+  LOG(INFO) << "SIGHUP: token file re-read: " << *tokens << (*tokens == 1 ? " token" : " tokens")
+            << " in force";
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   // glibc gives each thread that allocates its own arena and keeps what is
   // freed there; with gRPC's thread pool every request could leave a 12 Mpx
@@ -139,12 +158,7 @@ int main(int argc, char** argv) {
     int received = 0;
     sigwait(&signals, &received);
     if (received == SIGHUP) {
-      const absl::Status reloaded = (*server)->ReloadTokens();
-      if (reloaded.ok()) {
-        LOG(INFO) << "SIGHUP: token file re-read";
-      } else {
-        LOG(ERROR) << "SIGHUP: " << reloaded.message() << "; the previous tokens stay in force";
-      }
+      ReloadTokens(options, **server);
       continue;
     }
     LOG(INFO) << "signal " << received << ": draining (grace " << grace_s << " s)";

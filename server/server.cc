@@ -171,9 +171,12 @@ RunningServer::~RunningServer() {
   metrics_endpoint_.reset();
 }
 
-absl::Status RunningServer::ReloadTokens() {
-  if (!auth_ || !auth_->enabled()) return absl::OkStatus();
-  return auth_->Reload();
+absl::StatusOr<int> RunningServer::ReloadTokens() {
+  if (!auth_ || !auth_->enabled()) {
+    return absl::FailedPreconditionError("no --token-file to re-read");
+  }
+  if (absl::Status s = auth_->Reload(); !s.ok()) return s;
+  return auth_->token_count();
 }
 
 void RunningServer::SetReady(bool ready) {

@@ -67,8 +67,10 @@ class RunningServer {
   int port() const { return port_; }
   int metrics_port() const { return metrics_endpoint_ ? metrics_endpoint_->port() : 0; }
   int health_port() const { return health_port_; }
-  // Re-reads the token file (SIGHUP); the tokens in force stay on failure.
-  absl::Status ReloadTokens();
+  // Re-reads the token file (SIGHUP): the number of tokens now in force.
+  // On failure the tokens in force stay; FAILED_PRECONDITION without a
+  // token file.
+  absl::StatusOr<int> ReloadTokens();
   // Readiness goes NOT_SERVING, new calls are refused with UNAVAILABLE,
   // calls in flight get up to `grace` to finish before they are cancelled.
   void Shutdown(std::chrono::milliseconds grace);

@@ -68,20 +68,24 @@ TEST(AuthenticatorTest, ChecksTheBearerTokenAndReloadsKeepingTokensOnError) {
   EXPECT_EQ(wrong.code(), absl::StatusCode::kUnauthenticated);
   EXPECT_FALSE(absl::StrContains(wrong.message(), "second")) << "echoes the presented token";
 
-  WriteText(path, "second\n");
+  EXPECT_EQ(a.token_count(), 1);
+  WriteText(path, "second\nthird\n");
   ASSERT_TRUE((*auth)->Reload().ok());
+  EXPECT_EQ(a.token_count(), 2);
   EXPECT_EQ(a.Check("Bearer first", true).code(), absl::StatusCode::kUnauthenticated);
   EXPECT_TRUE(a.Check("Bearer second", true).ok());
 
   WriteText(path, "# emptied by mistake\n");
   EXPECT_FALSE((*auth)->Reload().ok());
   EXPECT_TRUE(a.Check("Bearer second", true).ok()) << "a bad reload must keep the old tokens";
+  EXPECT_EQ(a.token_count(), 2);
   std::remove(path.c_str());
 }
 
 TEST(AuthenticatorTest, WithoutATokenFileEveryCallIsLetThrough) {
   Authenticator open;
   EXPECT_FALSE(open.enabled());
+  EXPECT_EQ(open.token_count(), 0);
   EXPECT_TRUE(open.Check("", false).ok());
 }
 

@@ -224,6 +224,33 @@ TEST(Hardening, MutualTlsAndBearerTokensReloadedOnSighup) {
   EXPECT_TRUE(daemon.running());
 }
 
+// Waits up to 10 s for `text` in the daemon's log.
+bool AwaitLog(const Daemon& daemon, const std::string& text) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!absl::StrContains(daemon.Log(), text)) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+// The SIGHUP log line says what happened: nothing without a token file, the
+// number of tokens in force with one.
+TEST(Hardening, SighupLogsWhatItDid) {
+  Daemon open;
+  open.Signal(SIGHUP);
+  EXPECT_TRUE(AwaitLog(open, "SIGHUP: no --token-file to re-read")) << open.Log();
+  EXPECT_FALSE(absl::StrContains(open.Log(), "token file re-read")) << open.Log();
+
+  const std::string dir = MakeTempDir();
+  WriteFileOrDie(dir + "/tokens", "first-token\n");
+  Daemon guarded({"--token-file", dir + "/tokens"});
+  WriteFileOrDie(dir + "/tokens", "first-token\n# a comment\nsecond-token\nthird-token\n");
+  guarded.Signal(SIGHUP);
+  EXPECT_TRUE(AwaitLog(guarded, "re-read: 3 tokens in force")) << guarded.Log();
+  EXPECT_TRUE(guarded.running());
+}
+
 TEST(Hardening, SigtermDrainsCallsInFlightAndRefusesNewOnes) {
   Daemon daemon({"--shutdown-grace-s", "20"});
   ASSERT_TRUE(AwaitReady(Plain(daemon)));
