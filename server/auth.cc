@@ -79,6 +79,11 @@ absl::Status Authenticator::Reload() {
   return absl::OkStatus();
 }
 
+int Authenticator::token_count() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return tokens_ ? tokens_->size() : 0;
+}
+
 absl::Status Authenticator::Check(absl::string_view authorization_header,
                                   bool header_present) const {
   if (!enabled()) return absl::OkStatus();

@@ -51,6 +51,8 @@ class Authenticator {
   // Reads the file again. On failure the tokens in force stay (a typo in the
   // file must not lock the lab out) and the error is returned for the log.
   absl::Status Reload();
+  // How many tokens are in force (0 without a token file).
+  int token_count() const;
   // OK, or UNAUTHENTICATED saying what was wrong (missing header, not a
   // bearer token, unknown token) and never echoing what was presented.
   absl::Status Check(absl::string_view authorization_header, bool header_present) const;

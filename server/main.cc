@@ -14,6 +14,25 @@
 
 #include "server/server.h"
 
+namespace {
+
+// SIGHUP: re-reads the token file, and logs what that changed.
+void ReloadTokens(const weavefit::ServerOptions& options, weavefit::RunningServer& server) {
+  if (options.token_file.empty()) {
+    LOG(INFO) << "SIGHUP: no --token-file to re-read; nothing changed";
+    return;
+  }
+  const absl::StatusOr<int> tokens = server.ReloadTokens();
+  if (!tokens.ok()) {
+    LOG(ERROR) << "SIGHUP: " << tokens.status().message() << "; the previous tokens stay in force";
+    return;
+  }
+  LOG(INFO) << "SIGHUP: token file re-read: " << *tokens << (*tokens == 1 ? " token" : " tokens")
+            << " in force";
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   // glibc gives each thread that allocates its own arena and keeps what is
   // freed there; with gRPC's thread pool every request could leave a 12 Mpx
@@ -101,14 +120,16 @@ int main(int argc, char** argv) {
                  "'authorization: Bearer <token>'. Re-read on SIGHUP")
       ->check(CLI::ExistingFile)->group(access);
   app.add_flag("--insecure-remote", options.insecure_remote,
-               "allow a non-loopback --listen without TLS (trusted networks only)")
+               "allow a non-loopback --listen without TLS, and a non-loopback --metrics-listen "
+               "(always plaintext); trusted networks only")
       ->group(access);
   app.add_flag("--reflection", options.reflection,
                "serve gRPC reflection on a non-loopback address too (always on for loopback)")
       ->group(access);
   auto* operation = "Operation";
   app.add_option("--metrics-listen", options.metrics_listen,
-                 "host:port for Prometheus metrics at /metrics (off when empty)")
+                 "host:port for Prometheus metrics at /metrics, plaintext HTTP (off when "
+                 "empty); an address other than loopback needs --insecure-remote")
       ->group(operation);
   app.add_option("--health-listen", options.health_listen,
                  "host:port of a plaintext port serving only grpc.health.v1, for probes that "
@@ -164,12 +185,7 @@ int main(int argc, char** argv) {
     int received = 0;
     sigwait(&signals, &received);
     if (received == SIGHUP) {
-      const absl::Status reloaded = (*server)->ReloadTokens();
-      if (reloaded.ok()) {
-        LOG(INFO) << "SIGHUP: token file re-read";
-      } else {
-        LOG(ERROR) << "SIGHUP: " << reloaded.message() << "; the previous tokens stay in force";
-      }
+      ReloadTokens(options, **server);
       continue;
     }
     LOG(INFO) << "signal " << received << ": draining (grace " << grace_s << " s)";

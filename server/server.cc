@@ -3,11 +3,14 @@
 #include <arpa/inet.h>
 #include <glog/logging.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/generic/async_generic_service.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/impl/server_builder_option.h>
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server.h>
 #include <grpcpp/server_builder.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -48,6 +51,69 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(
   return grpc::SslServerCredentials(ssl);
 }
 
+// Takes server reflection out of one builder. Debian's libgrpc++_reflection
+// registers its plugin from a static initialiser when the library is loaded,
+// so every ServerBuilder in the process serves reflection whether or not
+// InitProtoReflectionServerBuilderPlugin() was called: it cannot be left off
+// by not asking for it.
+class WithoutReflection : public grpc::ServerBuilderOption {
+ public:
+  void UpdateArguments(grpc::ChannelArguments*) override {}
+  void UpdatePlugins(std::vector<std::unique_ptr<grpc::ServerBuilderPlugin>>* plugins) override {
+    auto is_reflection = [](const std::unique_ptr<grpc::ServerBuilderPlugin>& plugin) {
+      return dynamic_cast<grpc::reflection::ProtoServerReflectionPlugin*>(plugin.get()) != nullptr;
+    };
+    plugins->erase(std::remove_if(plugins->begin(), plugins->end(), is_reflection),
+                   plugins->end());
+  }
+};
+
+// INVALID_ARGUMENT unless `address` (the value of `flag`) is host:port.
+absl::Status CheckHostPort(const char* flag, const std::string& address) {
+  if (!address.empty() && address.find(':') != std::string::npos) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(flag, " must be host:port, got '", address, "'"));
+}
+
+// The plaintext --health-listen server: grpc.health.v1 and nothing else.
+// gRPC 1.51's default health service is a callback service that
+// Server::Start adds only after BuildAndStart has refused a server without a
+// frequently polled queue; the reflection plugin's service used to supply
+// one unseen. `unimplemented` (a bare generic service, which answers every
+// method UNIMPLEMENTED as gRPC's own fallback does) supplies it now.
+std::unique_ptr<grpc::Server> StartHealthServer(const std::string& address,
+                                                grpc::CallbackGenericService* unimplemented,
+                                                int* port) {
+  grpc::ServerBuilder builder;
+  builder.SetOption(std::make_unique<WithoutReflection>());
+  builder.RegisterCallbackGenericService(unimplemented);
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  builder.AddListeningPort(address, grpc::InsecureServerCredentials(), port);
+  return builder.BuildAndStart();
+}
+
+// The --listen server: WeaveFit, health, and reflection when it is on.
+std::unique_ptr<grpc::Server> StartMainServer(
+    const ServerOptions& options, std::shared_ptr<grpc::ServerCredentials> credentials,
+    grpc::Service* service, int* port) {
+  grpc::ServerBuilder builder;
+  if (!options.ServesReflection()) builder.SetOption(std::make_unique<WithoutReflection>());
+  builder.AddListeningPort(options.listen, std::move(credentials), port);
+  builder.RegisterService(service);
+  // A chunk is at most 1 MiB; leave room for the envelope.
+  builder.SetMaxReceiveMessageSize(
+      static_cast<int>(options.service.max_chunk_bytes + (64 << 10)));
+  // A port another process holds is an error, not a port to share
+  // (gRPC sets SO_REUSEPORT by default).
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
+                             kServerMinPingIntervalMs);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, kServerKeepaliveTimeMs);
+  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kServerKeepaliveTimeoutMs);
+  return builder.BuildAndStart();
+}
+
 }  // namespace
 
 bool IsLoopbackAddress(const std::string& host_port) {
@@ -64,11 +130,12 @@ bool IsLoopbackAddress(const std::string& host_port) {
   return inet_pton(AF_INET6, host.c_str(), &v6) == 1 && IN6_IS_ADDR_LOOPBACK(&v6);
 }
 
+bool ServerOptions::ServesReflection() const {
+  return reflection || IsLoopbackAddress(listen);
+}
+
 absl::Status ServerOptions::Validate() const {
-  if (listen.empty() || listen.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("listen must be host:port, got '", listen, "'"));
-  }
+  if (absl::Status s = CheckHostPort("--listen", listen); !s.ok()) return s;
   if (tls_cert.empty() != tls_key.empty()) {
     return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
   }
@@ -80,13 +147,20 @@ absl::Status ServerOptions::Validate() const {
         "refusing to listen on ", listen, " without TLS: give --tls-cert and --tls-key, "
         "or --insecure-remote on a network you trust"));
   }
-  if (!health_listen.empty() && health_listen.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("health listen must be host:port, got '", health_listen, "'"));
+  // The health port may be anywhere: the kubelet probes it from the node,
+  // and it serves nothing but grpc.health.v1.
+  if (!health_listen.empty()) {
+    if (absl::Status s = CheckHostPort("--health-listen", health_listen); !s.ok()) return s;
   }
-  if (!metrics_listen.empty() && metrics_listen.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("metrics listen must be host:port, got '", metrics_listen, "'"));
+  if (!metrics_listen.empty()) {
+    if (absl::Status s = CheckHostPort("--metrics-listen", metrics_listen); !s.ok()) return s;
+    // Metrics have no TLS, so TLS on the gRPC port does not cover them.
+    if (!IsLoopbackAddress(metrics_listen) && !insecure_remote) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "refusing to serve metrics in plaintext on ", metrics_listen,
+          ": give --metrics-listen a loopback address, or --insecure-remote on a network "
+          "you trust"));
+    }
   }
   return service.Validate();
 }
@@ -97,9 +171,12 @@ RunningServer::~RunningServer() {
   metrics_endpoint_.reset();
 }
 
-absl::Status RunningServer::ReloadTokens() {
-  if (!auth_ || !auth_->enabled()) return absl::OkStatus();
-  return auth_->Reload();
+absl::StatusOr<int> RunningServer::ReloadTokens() {
+  if (!auth_ || !auth_->enabled()) {
+    return absl::FailedPreconditionError("no --token-file to re-read");
+  }
+  if (absl::Status s = auth_->Reload(); !s.ok()) return s;
+  return auth_->token_count();
 }
 
 void RunningServer::SetReady(bool ready) {
@@ -158,39 +235,22 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
       options.service, running->auth_.get(), running->metrics_.get());
 
   grpc::EnableDefaultHealthCheckService(true);
+  // Every builder made from here on carries the reflection plugin: Debian's
+  // library registers it when loaded, and registering it here as well makes
+  // that so for any build of gRPC. WithoutReflection takes it out again
+  // wherever reflection must be off.
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   if (!options.health_listen.empty()) {
-    // Its own server, so that the plaintext port carries nothing but health;
-    // built before the reflection plugin is registered, which every builder
-    // made afterwards would pick up.
-    grpc::ServerBuilder health_builder;
-    health_builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-    health_builder.AddListeningPort(options.health_listen, grpc::InsecureServerCredentials(),
-                                    &running->health_port_);
-    running->health_server_ = health_builder.BuildAndStart();
+    running->health_unimplemented_ = std::make_unique<grpc::CallbackGenericService>();
+    running->health_server_ = StartHealthServer(
+        options.health_listen, running->health_unimplemented_.get(), &running->health_port_);
     if (!running->health_server_ || running->health_port_ == 0) {
       return absl::UnavailableError(
           absl::StrCat("could not listen on ", options.health_listen, " (health)"));
     }
   }
-  const bool reflection = options.reflection || IsLoopbackAddress(options.listen);
-  // Debian's gRPC 1.51 serves grpc.reflection.v1alpha; the plugin must be
-  // initialised explicitly before the builder is made (and only then).
-  if (reflection) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.listen, *credentials, &running->port_);
-  builder.RegisterService(running->service_.get());
-  // A chunk is at most 1 MiB; leave room for the envelope.
-  builder.SetMaxReceiveMessageSize(
-      static_cast<int>(options.service.max_chunk_bytes + (64 << 10)));
-  // A port another process holds is an error, not a port to share
-  // (gRPC sets SO_REUSEPORT by default).
-  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-  builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS,
-                             kServerMinPingIntervalMs);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIME_MS, kServerKeepaliveTimeMs);
-  builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, kServerKeepaliveTimeoutMs);
-  running->server_ = builder.BuildAndStart();
+  running->server_ = StartMainServer(options, *credentials, running->service_.get(),
+                                     &running->port_);
   if (!running->server_ || running->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("could not listen on ", options.listen));
   }
@@ -208,7 +268,8 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
   LOG(INFO) << "weavefitd listening on " << options.listen << " (port " << running->port_
             << (options.tls() ? ", TLS" : ", plaintext")
             << (options.tls_client_ca.empty() ? "" : ", client certificates required")
-            << (running->auth_ ? ", bearer tokens" : "") << (reflection ? ", reflection" : "")
+            << (running->auth_ ? ", bearer tokens" : "")
+            << (options.ServesReflection() ? ", reflection on" : ", reflection off")
             << "), " << options.service.workers << " workers, queue "
             << options.service.max_queue << ", memory budget "
             << options.service.memory_budget_bytes / (1 << 20) << " MiB, upload limit "
@@ -217,8 +278,8 @@ absl::StatusOr<std::unique_ptr<RunningServer>> StartServer(const ServerOptions& 
             << " MiB, idle limit " << options.service.upload_idle_s << " s, deadline "
             << options.service.deadline_s << " s";
   if (running->health_server_) {
-    LOG(INFO) << "health only, plaintext, on " << options.health_listen << " (port "
-              << running->health_port_ << ")";
+    LOG(INFO) << "health only (no reflection), plaintext, on " << options.health_listen
+              << " (port " << running->health_port_ << ")";
   }
   if (running->metrics_endpoint_) {
     LOG(INFO) << "metrics on " << options.metrics_listen << " (port "

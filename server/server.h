@@ -15,6 +15,7 @@
 #include "server/service.h"
 
 namespace grpc {
+class CallbackGenericService;
 class Server;
 }  // namespace grpc
 
@@ -34,20 +35,25 @@ struct ServerOptions {
   std::string tls_client_ca;
   // Bearer tokens, one per line; empty = no token check.
   std::string token_file;
-  // A non-loopback address without TLS is refused unless this is set.
+  // A non-loopback listen without TLS, or a non-loopback metrics_listen, is
+  // refused unless this is set.
   bool insecure_remote = false;
   // Server reflection exposes the whole schema: on for a loopback address,
-  // elsewhere only when asked.
+  // elsewhere only when asked (see ServesReflection).
   bool reflection = false;
-  // host:port of the Prometheus endpoint; empty = off.
+  // host:port of the Prometheus endpoint (plaintext HTTP); empty = off. A
+  // non-loopback address needs insecure_remote, TLS or not.
   std::string metrics_listen;
   // host:port of a plaintext port that serves only grpc.health.v1 (liveness
   // and readiness), for probes that cannot speak TLS (Kubernetes' grpc
-  // probe); empty = off.
+  // probe); empty = off. Allowed on any address: it tells only whether the
+  // daemon is up and ready.
   std::string health_listen;
   ServiceOptions service;
 
   bool tls() const { return !tls_cert.empty(); }
+  // On the --listen port only; never on the health port.
+  bool ServesReflection() const;
   absl::Status Validate() const;
 };
 
@@ -61,8 +67,10 @@ class RunningServer {
   int port() const { return port_; }
   int metrics_port() const { return metrics_endpoint_ ? metrics_endpoint_->port() : 0; }
   int health_port() const { return health_port_; }
-  // Re-reads the token file (SIGHUP); the tokens in force stay on failure.
-  absl::Status ReloadTokens();
+  // Re-reads the token file (SIGHUP): the number of tokens now in force.
+  // On failure the tokens in force stay; FAILED_PRECONDITION without a
+  // token file.
+  absl::StatusOr<int> ReloadTokens();
   // Readiness goes NOT_SERVING, new calls are refused with UNAVAILABLE,
   // calls in flight get up to `grace` to finish before they are cancelled.
   void Shutdown(std::chrono::milliseconds grace);
@@ -78,7 +86,10 @@ class RunningServer {
   std::unique_ptr<MetricsEndpoint> metrics_endpoint_;
   std::unique_ptr<WeaveFitService> service_;
   std::unique_ptr<grpc::Server> server_;
-  std::unique_ptr<grpc::Server> health_server_;  // --health-listen
+  // --health-listen: the server, and what answers it for any other service
+  // (declared first so that it outlives the server).
+  std::unique_ptr<grpc::CallbackGenericService> health_unimplemented_;
+  std::unique_ptr<grpc::Server> health_server_;
   int health_port_ = 0;
   std::thread warm_up_;  // builds the FLANN bank, then declares readiness
   std::mutex readiness_mutex_;  // orders draining_ with SetReady

@@ -69,20 +69,24 @@ TEST(AuthenticatorTest, ChecksTheBearerTokenAndReloadsKeepingTokensOnError) {
   EXPECT_EQ(wrong.code(), absl::StatusCode::kUnauthenticated);
   EXPECT_FALSE(absl::StrContains(wrong.message(), "second")) << "echoes the presented token";
 
-  WriteText(path, "second\n");
+  EXPECT_EQ(a.token_count(), 1);
+  WriteText(path, "second\nthird\n");
   ASSERT_TRUE((*auth)->Reload().ok());
+  EXPECT_EQ(a.token_count(), 2);
   EXPECT_EQ(a.Check("Bearer first", true).code(), absl::StatusCode::kUnauthenticated);
   EXPECT_TRUE(a.Check("Bearer second", true).ok());
 
   WriteText(path, "# emptied by mistake\n");
   EXPECT_FALSE((*auth)->Reload().ok());
   EXPECT_TRUE(a.Check("Bearer second", true).ok()) << "a bad reload must keep the old tokens";
+  EXPECT_EQ(a.token_count(), 2);
   std::remove(path.c_str());
 }
 
 TEST(AuthenticatorTest, WithoutATokenFileEveryCallIsLetThrough) {
   Authenticator open;
   EXPECT_FALSE(open.enabled());
+  EXPECT_EQ(open.token_count(), 0);
   EXPECT_TRUE(open.Check("", false).ok());
 }
 
@@ -253,6 +257,27 @@ TEST(ServerOptionsTest, ANonLoopbackAddressNeedsTlsOrInsecureRemote) {
   options.tls_cert = "server.pem";
   EXPECT_FALSE(options.Validate().ok()) << "a certificate without its key";
   options.tls_key = "server.key";
+  EXPECT_TRUE(options.Validate().ok());
+}
+
+// Metrics are plaintext HTTP whatever the gRPC port speaks; the health port
+// stays allowed anywhere, for the node's probes.
+TEST(ServerOptionsTest, ANonLoopbackMetricsAddressNeedsInsecureRemote) {
+  ServerOptions options;
+  options.metrics_listen = "127.0.0.1:9464";
+  options.health_listen = "0.0.0.0:8081";
+  EXPECT_TRUE(options.Validate().ok());
+  options.metrics_listen = "0.0.0.0:9464";
+  const absl::Status refused = options.Validate();
+  EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(absl::StrContains(refused.message(), "--metrics-listen")) << refused;
+  EXPECT_TRUE(absl::StrContains(refused.message(), "--insecure-remote")) << refused;
+  options.listen = "0.0.0.0:50051";
+  options.tls_cert = "server.pem";
+  options.tls_key = "server.key";
+  EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument)
+      << "TLS on the gRPC port does not cover metrics";
+  options.insecure_remote = true;
   EXPECT_TRUE(options.Validate().ok());
 }
 

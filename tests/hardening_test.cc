@@ -94,6 +94,20 @@ TEST(Hardening, APlaintextNonLoopbackAddressIsRefusedUnlessInsecureRemote) {
   EXPECT_GT(allowed.port(), 0);
 }
 
+// Metrics are plaintext HTTP, so a non-loopback --metrics-listen follows the
+// gRPC port's rule even when that port has TLS. `timeout` keeps a daemon that
+// wrongly starts from holding the test until ctest's limit.
+TEST(Hardening, APlaintextNonLoopbackMetricsAddressIsRefusedUnlessInsecureRemote) {
+  const CommandResult refused = RunCommand({"/usr/bin/timeout", "20", WEAVEFITD_PATH, "--listen",
+                                            "127.0.0.1:0", "--metrics-listen", "0.0.0.0:0"});
+  EXPECT_EQ(refused.exit_code, 1) << refused.err;
+  EXPECT_TRUE(absl::StrContains(refused.err, "--metrics-listen")) << refused.err;
+  EXPECT_TRUE(absl::StrContains(refused.err, "--insecure-remote")) << refused.err;
+  Daemon allowed({"--metrics-listen", "0.0.0.0:0", "--insecure-remote"});
+  EXPECT_TRUE(allowed.running()) << allowed.Log();
+  EXPECT_TRUE(absl::StartsWith(HttpGet(allowed.metrics_port(), "/metrics"), "HTTP/1.1 200"));
+}
+
 // Startup failures are reported and exit 1; none may crash the daemon.
 TEST(Hardening, StartupFailuresExitWithTheirReason) {
   const std::string dir = MakeTempDir();
@@ -208,6 +222,33 @@ TEST(Hardening, MutualTlsAndBearerTokensReloadedOnSighup) {
   }
   EXPECT_EQ(Submit(daemon, with({"--token-file", dir + "/second"})).exit_code, 0);
   EXPECT_TRUE(daemon.running());
+}
+
+// Waits up to 10 s for `text` in the daemon's log.
+bool AwaitLog(const Daemon& daemon, const std::string& text) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!absl::StrContains(daemon.Log(), text)) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+// The SIGHUP log line says what happened: nothing without a token file, the
+// number of tokens in force with one.
+TEST(Hardening, SighupLogsWhatItDid) {
+  Daemon open;
+  open.Signal(SIGHUP);
+  EXPECT_TRUE(AwaitLog(open, "SIGHUP: no --token-file to re-read")) << open.Log();
+  EXPECT_FALSE(absl::StrContains(open.Log(), "token file re-read")) << open.Log();
+
+  const std::string dir = MakeTempDir();
+  WriteFileOrDie(dir + "/tokens", "first-token\n");
+  Daemon guarded({"--token-file", dir + "/tokens"});
+  WriteFileOrDie(dir + "/tokens", "first-token\n# a comment\nsecond-token\nthird-token\n");
+  guarded.Signal(SIGHUP);
+  EXPECT_TRUE(AwaitLog(guarded, "re-read: 3 tokens in force")) << guarded.Log();
+  EXPECT_TRUE(guarded.running());
 }
 
 TEST(Hardening, SigtermDrainsCallsInFlightAndRefusesNewOnes) {
