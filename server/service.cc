@@ -172,7 +172,10 @@ absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(Upload* upload
   Upload& upload = *upload_ptr;
   absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(upload.header.acquisition());
   if (!acquisition.ok()) return acquisition.status();
-  EstimateOptions options = OptionsFromProto(upload.header.options(), options_.estimate);
+  absl::StatusOr<EstimateOptions> parsed =
+      OptionsFromProto(upload.header.options(), options_.estimate);
+  if (!parsed.ok()) return parsed.status();
+  EstimateOptions options = *std::move(parsed);
   const Clock::time_point deadline = call->deadline;
   options.interrupt = [context, deadline]() -> absl::Status {
     if (Clock::now() >= deadline) {
