@@ -64,8 +64,9 @@ absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& hea
                                                     const std::string& profile_csv) {
   absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(header.acquisition());
   if (!acquisition.ok()) return acquisition.status();
-  const EstimateOptions options = OptionsFromProto(header.options(), EstimateOptions());
-  absl::StatusOr<Estimate> estimate = EstimateFromBytes(bytes, *acquisition, options);
+  absl::StatusOr<EstimateOptions> options = OptionsFromProto(header.options(), EstimateOptions());
+  if (!options.ok()) return options.status();
+  absl::StatusOr<Estimate> estimate = EstimateFromBytes(bytes, *acquisition, *options);
   if (!estimate.ok()) return estimate.status();
   if (!profile_csv.empty()) {
     if (absl::Status s = WriteFile(profile_csv, ProfileCsv(estimate->profile)); !s.ok()) return s;

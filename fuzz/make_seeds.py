@@ -2,8 +2,10 @@
 """Writes the fuzzers' seed corpus (committed under fuzz/corpus/):
 
   decode/   small photographs in every format weavefit reads, and broken ones
-  request/  inputs for request_fuzzer: byte 0 selects the call, then records
-            of [2-byte little-endian length][serialised EstimateRequest]
+  request/  inputs for request_fuzzer: byte 0 selects the call and which of
+            the fixed fields after it apply (roi, phase angle and diameter,
+            mode), then those fields, then records of [2-byte little-endian
+            length][serialised EstimateRequest] (see request_fuzzer.cc)
 
 Run from the repository root after a build (it uses build/client/weavefit to
 render and build/python/stubs for the messages):
@@ -29,6 +31,14 @@ def render(path, fmt, width=64, height=48, extra=()):
                    stdout=subprocess.DEVNULL)
     with open(path, "rb") as f:
         return f.read()
+
+
+ROI, GEOMETRY, MODE = 8, 16, 32  # byte 0's bits for the fixed fields
+
+
+def fixed(flags=0, roi=(0, 0, 0, 0), phase=0.0, diameter=0.0, mode=0):
+    """Byte 0 and the fixed fields request_fuzzer applies to every header."""
+    return bytes([flags]) + struct.pack("<4i2di", *roi, phase, diameter, mode)
 
 
 def record(message):
@@ -78,18 +88,30 @@ def main():
         with open(os.path.join(CORPUS, "decode", name), "wb") as f:
             f.write(data)
 
-    whole = images["whole"]
+    whole = images["whole"]  # 160 x 120
+    estimate = record(header(total=len(whole))) + b"".join(
+        record(chunk(whole[i:i + 4096])) for i in range(0, len(whole), 4096))
     requests = {
-        "estimate": b"\x00" + record(header(total=len(whole))) + b"".join(
-            record(chunk(whole[i:i + 4096])) for i in range(0, len(whole), 4096)),
-        "estimate_fast": b"\x00" + record(header(mode=pb.FAST)) + record(chunk(whole)),
-        "joint": b"\x01" + record(header(10.0)) + record(chunk(whole)) + record(header(60.0))
+        "estimate": fixed() + estimate,
+        "estimate_fast": fixed() + record(header(mode=pb.FAST)) + record(chunk(whole)),
+        "joint": fixed(1) + record(header(10.0)) + record(chunk(whole)) + record(header(60.0))
                  + record(chunk(whole)),
-        "second_header": b"\x00" + record(header()) + record(header()),
-        "no_header": b"\x00" + record(chunk(png)),
-        "bad_phase": b"\x00" + record(header(phase=400.0)) + record(chunk(png)),
-        "wrong_total": b"\x00" + record(header(total=12)) + record(chunk(png)),
-        "fuzzed_token": b"\x02" + record(header()) + record(chunk(png)),
+        "second_header": fixed() + record(header()) + record(header()),
+        "no_header": fixed() + record(chunk(png)),
+        "bad_phase": fixed() + record(header(phase=400.0)) + record(chunk(png)),
+        "wrong_total": fixed() + record(header(total=12)) + record(chunk(png)),
+        "fuzzed_token": fixed(2) + record(header()) + record(chunk(png)),
+        # The fixed fields over an image that decodes: the estimator's
+        # geometry within one mutation of any value (issue 30).
+        "roi_whole": fixed(ROI, roi=(0, 0, 160, 120)) + estimate,
+        "roi_inner": fixed(ROI, roi=(16, 8, 128, 100)) + estimate,
+        "roi_joint": fixed(1 | ROI, roi=(8, 0, 144, 120)) + record(header(10.0))
+                     + record(chunk(whole)) + record(header(60.0)) + record(chunk(whole)),
+        "geometry": fixed(GEOMETRY, phase=30.0, diameter=46.0) + estimate,
+        "mode_accurate": fixed(MODE, mode=pb.ACCURATE) + estimate,
+        "mode_unknown": fixed(MODE, mode=99) + estimate,
+        # The input that crashed weavefitd (issue 30), kept as a regression.
+        "roi_overflow": fixed(ROI, roi=(2147483547, 0, 200, 100)) + estimate,
     }
     for name, data in requests.items():
         with open(os.path.join(CORPUS, "request", name), "wb") as f:

@@ -291,6 +291,15 @@ absl::Status WeaveFitService::Accept(const v1::EstimateRequest& message, Call* c
           "upload of ", message.header().total_bytes(), " bytes exceeds the limit of ",
           options_.max_upload_bytes, " bytes"));
     }
+    // Nonsense acquisition values or options are refused before the image
+    // is read (the same checks run again where the estimate starts).
+    if (absl::Status s = AcquisitionFromProto(message.header().acquisition()).status(); !s.ok()) {
+      return s;
+    }
+    if (absl::Status s = OptionsFromProto(message.header().options(), options_.estimate).status();
+        !s.ok()) {
+      return s;
+    }
     uploads.push_back({message.header(), std::string()});
     return absl::OkStatus();
   }
@@ -382,7 +391,10 @@ absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(Upload* upload
   Upload& upload = *upload_ptr;
   absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(upload.header.acquisition());
   if (!acquisition.ok()) return acquisition.status();
-  EstimateOptions options = OptionsFromProto(upload.header.options(), options_.estimate);
+  absl::StatusOr<EstimateOptions> parsed =
+      OptionsFromProto(upload.header.options(), options_.estimate);
+  if (!parsed.ok()) return parsed.status();
+  EstimateOptions options = *std::move(parsed);
   const Clock::time_point deadline = call->deadline;
   options.interrupt = [call, deadline]() -> absl::Status {
     if (Clock::now() >= deadline) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <thread>
@@ -17,6 +18,7 @@
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "proto/weavefit/v1/convert.h"
 #include "tests/test_support.h"
+#include "weavefit/v1/weavefit.grpc.pb.h"
 
 namespace weavefit::testing {
 namespace {
@@ -39,6 +41,7 @@ grpc::health::v1::HealthCheckResponse::ServingStatus Health(const std::string& a
 v1::EstimateReply ParseReply(const std::string& json) {
   absl::StatusOr<v1::EstimateReply> reply = ReplyFromJson(json);
   EXPECT_TRUE(reply.ok()) << reply.status() << "\n" << json;
+  if (reply.ok()) ExpectFiniteReply(*reply);
   return reply.ok() ? *reply : v1::EstimateReply();
 }
 
@@ -183,6 +186,13 @@ TEST_F(EndToEnd, JointEstimateOverFourPhaseAngles) {
   google::protobuf::Struct joint;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(lines.back(), &joint).ok()) << lines.back();
   const google::protobuf::Struct& j = joint.fields().at("joint").struct_value();
+  {
+    std::string j_json;
+    v1::JointEstimate parsed;
+    ASSERT_TRUE(google::protobuf::util::MessageToJsonString(j, &j_json).ok());
+    ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(j_json, &parsed).ok()) << j_json;
+    ExpectFiniteReply(parsed);
+  }
   EXPECT_EQ(j.fields().at("model").string_value(), "SINUSOID");
   EXPECT_EQ(j.fields().at("slopePhotographs").number_value(), 4);
   const auto& m = j.fields().at("maxSlope").struct_value().fields();
@@ -333,6 +343,11 @@ TEST_F(EndToEnd, BadInputGetsAClearErrorAndTheDaemonKeepsServing) {
       {"phase180.png", png, {"--phase-angle", "180"}, "phase_angle_deg"},
       {"phase-200.png", png, {"--phase-angle=-200"}, "phase_angle_deg"},
       {"negative_diameter.png", png, {"--phase-angle", "10", "--diameter-mm=-5"}, "cylinder_diameter_mm"},
+      // Outside a lab cylinder's range (issue 30): 1e-300 was answered with
+      // NaN errors marked resolved.
+      {"tiny_diameter.png", png, {"--phase-angle", "10", "--diameter-mm=1e-300"}, "cylinder_diameter_mm"},
+      {"huge_diameter.png", png, {"--phase-angle", "10", "--diameter-mm=1e300"}, "got 1e+300"},
+      {"far_camera.png", png, {"--phase-angle", "10", "--distance-mm=1e300"}, "camera_distance_mm"},
       {"no_cylinder.png", "", {"--phase-angle", "10"}, "no cylinder"},
   };
   for (const BadInput& c : cases) {
@@ -371,6 +386,82 @@ TEST_F(EndToEnd, BadInputGetsAClearErrorAndTheDaemonKeepsServing) {
   EXPECT_EQ(Health(daemon_->address()), grpc::health::v1::HealthCheckResponse::SERVING);
   const CommandResult after = Submit({good, "--json"});
   EXPECT_EQ(after.exit_code, 0) << after.err;
+}
+
+// One Estimate call straight through a stub, with a header no client flag
+// builds (a region of interest, an enum value of no known mode).
+grpc::Status CallEstimate(const std::string& address, const v1::RequestHeader& header,
+                          const std::string& image, v1::EstimateReply* reply) {
+  auto stub = v1::WeaveFit::NewStub(
+      grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  auto writer = stub->Estimate(&context, reply);
+  v1::EstimateRequest message;
+  *message.mutable_header() = header;
+  bool open = writer->Write(message);
+  message.set_chunk(image);
+  if (open) writer->Write(message);
+  writer->WritesDone();
+  return writer->Finish();
+}
+
+// Request fields outside what they can mean are INVALID_ARGUMENT naming the
+// field, in a message without a 300-digit number, and harm nothing (issue
+// 30). The region of interest goes last: x_px = 2147483547 with width_px =
+// 200 wrapped round a 32-bit bounds check and killed weavefitd (SIGSEGV).
+TEST_F(EndToEnd, RequestFieldsOutOfRangeAreInvalidArgumentAndTheDaemonKeepsServing) {
+  const std::string png = ReadFileOrDie(kFixtures + "/gauze_sawtooth_p10.png");
+  v1::RequestHeader good;
+  good.mutable_acquisition()->set_phase_angle_deg(10.0);
+  good.mutable_acquisition()->set_cylinder_diameter_mm(46.0);
+  auto roi = [&good](int x, int y, int width, int height) {
+    v1::RequestHeader h = good;
+    h.mutable_acquisition()->mutable_roi()->set_x_px(x);
+    h.mutable_acquisition()->mutable_roi()->set_y_px(y);
+    h.mutable_acquisition()->mutable_roi()->set_width_px(width);
+    h.mutable_acquisition()->mutable_roi()->set_height_px(height);
+    return h;
+  };
+  auto with = [&good](auto set) {
+    v1::RequestHeader h = good;
+    set(h);
+    return h;
+  };
+  constexpr int kMax = std::numeric_limits<int>::max();
+  const std::vector<std::pair<v1::RequestHeader, std::string>> cases = {
+      {with([](v1::RequestHeader& h) { h.mutable_options()->set_mode(static_cast<v1::Mode>(99)); }),
+       "options.mode 99 is not a known mode (FAST, BALANCED, ACCURATE)"},
+      {with([](v1::RequestHeader& h) { h.mutable_options()->set_mode(static_cast<v1::Mode>(-1)); }),
+       "options.mode -1 is not a known mode"},
+      {with([](v1::RequestHeader& h) { h.mutable_acquisition()->set_cylinder_diameter_mm(1e-300); }),
+       "cylinder_diameter_mm"},
+      {with([](v1::RequestHeader& h) { h.mutable_acquisition()->set_cylinder_diameter_mm(1e300); }),
+       "cylinder_diameter_mm"},
+      {with([](v1::RequestHeader& h) { h.mutable_acquisition()->set_saturation_level(INFINITY); }),
+       "saturation_level"},
+      {roi(0, 0, 200, 0), "roi.width_px 200 with roi.height_px 0"},
+      {roi(2147483547, 0, 200, 100), "roi.x_px + roi.width_px = 2147483747 exceeds the image width"},
+      {roi(0, 2147483547, 100, 200),
+       "roi.y_px + roi.height_px = 2147483747 exceeds the image height"},
+      {roi(kMax, kMax, kMax, kMax), "roi.x_px + roi.width_px = 4294967294 exceeds the image width"},
+  };
+  for (const auto& [header, expect] : cases) {
+    SCOPED_TRACE(expect);
+    v1::EstimateReply reply;
+    const grpc::Status status = CallEstimate(daemon_->address(), header, png, &reply);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find(expect), std::string::npos) << status.error_message();
+    EXPECT_LT(status.error_message().size(), 200u) << status.error_message();
+  }
+  EXPECT_TRUE(daemon_->running());
+  EXPECT_EQ(Health(daemon_->address()), grpc::health::v1::HealthCheckResponse::SERVING);
+  // And a sound request after them is estimated (MODE_UNSPECIFIED: the
+  // server's default).
+  v1::EstimateReply reply;
+  const grpc::Status status = CallEstimate(daemon_->address(), good, png, &reply);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  ExpectFiniteReply(reply);
 }
 
 // Calls the daemon finished so far (one "Estimate peer=" log line each).

@@ -100,6 +100,7 @@ absl::StatusOr<std::string> EstimateInChunks(v1::WeaveFit::Stub& stub, const std
   if (!status.ok()) {
     return absl::Status(static_cast<absl::StatusCode>(status.error_code()), status.error_message());
   }
+  ExpectFiniteReply(reply);
   reply.clear_timings();
   return reply.SerializeAsString();
 }
@@ -209,6 +210,7 @@ TEST(Faults, ABurstBeyondTheAdmissionLimitIsRefusedPromptlyForTheExcessOnly) {
       if (open) writer->Write(chunk);
       writer->WritesDone();
       codes[c] = writer->Finish().error_code();
+      if (codes[c] == grpc::StatusCode::OK) ExpectFiniteReply(reply);
       seconds[c] = std::chrono::duration<double>(Clock::now() - start).count();
     });
   }

@@ -274,6 +274,7 @@ TEST(Hardening, SigtermDrainsCallsInFlightAndRefusesNewOnes) {
   writer->WritesDone();
   const grpc::Status status = writer->Finish();
   EXPECT_TRUE(status.ok()) << status.error_message();
+  ExpectFiniteReply(reply);
   EXPECT_EQ(reply.model(), v1::SMOOTH);
   EXPECT_EQ(daemon.Stop(), 0);
 }

@@ -76,7 +76,9 @@ grpc::StatusCode OneCall(v1::WeaveFit::Stub& stub, Kind kind, const std::string&
     open = writer->Write(message);
   }
   writer->WritesDone();
-  return writer->Finish().error_code();
+  const grpc::StatusCode code = writer->Finish().error_code();
+  if (code == grpc::StatusCode::OK) ExpectFiniteReply(reply);
+  return code;
 }
 
 // A line of /proc/PID/status ("VmRSS:", "VmHWM:", "Threads:") as a number

@@ -40,6 +40,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/string_view.h"
 #include "estimator/pipeline/estimate.h"
+#include "proto/weavefit/v1/convert.h"
 #include "tests/test_support.h"
 
 namespace weavefit::testing {
@@ -636,6 +637,7 @@ TEST_P(RegressionTest, MatchesTruth) {
   if (!estimate.ok()) status.note = estimate.status().ToString();
   result.checks.push_back(status);
   if (estimate.ok()) {
+    ExpectFiniteReply(ReplyFromEstimate(*estimate, fixture));
     for (Check& c : CheckEstimate(fixture, sidecar, *estimate, *table)) {
       result.checks.push_back(std::move(c));
     }

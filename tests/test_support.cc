@@ -5,6 +5,7 @@
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <fcntl.h>
+#include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -14,6 +15,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -22,6 +24,58 @@
 extern char** environ;
 
 namespace weavefit::testing {
+namespace {
+
+using google::protobuf::FieldDescriptor;
+using google::protobuf::Message;
+
+// Appends the non-finite numbers of a resolved Measurement in `m` (itself
+// at `path`), then walks every message field below.
+void CollectNonFinite(const Message& m, const std::string& path,
+                      std::vector<std::string>* out) {
+  const google::protobuf::Descriptor* type = m.GetDescriptor();
+  const google::protobuf::Reflection* reflection = m.GetReflection();
+  if (type->full_name() == "weavefit.v1.Measurement") {
+    const FieldDescriptor* resolved = type->FindFieldByName("resolved");
+    if (resolved == nullptr || !reflection->GetBool(m, resolved)) return;
+    for (int i = 0; i < type->field_count(); ++i) {
+      const FieldDescriptor* f = type->field(i);
+      if (f->cpp_type() != FieldDescriptor::CPPTYPE_DOUBLE) continue;
+      if (!std::isfinite(reflection->GetDouble(m, f))) out->push_back(path + "." + f->name());
+    }
+    return;
+  }
+  std::vector<const FieldDescriptor*> fields;
+  reflection->ListFields(m, &fields);
+  for (const FieldDescriptor* f : fields) {
+    if (f->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    const std::string at = path.empty() ? f->name() : path + "." + f->name();
+    if (!f->is_repeated()) {
+      CollectNonFinite(reflection->GetMessage(m, f), at, out);
+      continue;
+    }
+    for (int k = 0; k < reflection->FieldSize(m, f); ++k) {
+      CollectNonFinite(reflection->GetRepeatedMessage(m, f, k), at + "[" + std::to_string(k) + "]",
+                       out);
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> NonFiniteResolvedFields(const Message& reply) {
+  std::vector<std::string> fields;
+  CollectNonFinite(reply, "", &fields);
+  return fields;
+}
+
+void ExpectFiniteReply(const Message& reply) {
+  const std::vector<std::string> fields = NonFiniteResolvedFields(reply);
+  std::string names;
+  for (const std::string& f : fields) names += (names.empty() ? "" : ", ") + f;
+  EXPECT_TRUE(fields.empty()) << "resolved but not finite: " << names << "\n"
+                              << reply.DebugString();
+}
 
 // Sends `request` to 127.0.0.1:port; the whole response, headers included.
 std::string RawHttp(int port, const std::string& request) {

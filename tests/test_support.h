@@ -3,6 +3,7 @@
 #ifndef WEAVEFIT_TESTS_TEST_SUPPORT_H_
 #define WEAVEFIT_TESTS_TEST_SUPPORT_H_
 
+#include <google/protobuf/message.h>
 #include <google/protobuf/struct.pb.h>
 #include <sys/types.h>
 
@@ -44,6 +45,15 @@ std::string SidecarString(const google::protobuf::Struct& s,
                           const std::string& object, const std::string& field);
 bool SidecarBool(const google::protobuf::Struct& s, const std::string& object,
                  const std::string& field);
+
+// The fields of a reply (EstimateReply, JointEstimate, or any message that
+// holds weavefit.v1.Measurement fields, at any depth) that are marked
+// resolved but carry a NaN or an infinity, as paths such as
+// "channels[1].peak_spacing_deg.stderr". Empty for a sound reply.
+std::vector<std::string> NonFiniteResolvedFields(const google::protobuf::Message& reply);
+// Fails the current test, naming them, unless NonFiniteResolvedFields is
+// empty: every test that parses a reply calls it (issue 30).
+void ExpectFiniteReply(const google::protobuf::Message& reply);
 
 // A weavefitd child process on an ephemeral loopback port.
 class Daemon {

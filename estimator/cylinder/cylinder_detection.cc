@@ -543,8 +543,12 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   }
   PixelRegion region = options.region;
   if (region.IsEmpty()) region = {0, 0, luminance.width, luminance.height};
-  if (region.x + region.width > luminance.width ||
-      region.y + region.height > luminance.height) {
+  // In 64 bits, so that no two int fields can wrap round to pass (the
+  // pipeline's CheckRegion refuses such a region first; this is the guard
+  // of every other caller).
+  if (region.x < 0 || region.y < 0 ||
+      std::int64_t{region.x} + region.width > luminance.width ||
+      std::int64_t{region.y} + region.height > luminance.height) {
     return absl::InvalidArgumentError(absl::StrCat(
         "region of interest ", region.x, ",", region.y, " ", region.width, "x",
         region.height, " extends beyond the ", luminance.width, "x",

@@ -154,6 +154,18 @@ TEST(CylinderDetectionTest, RegionOfInterest) {
   ASSERT_FALSE(beyond.ok());
   EXPECT_EQ(beyond.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(std::string(beyond.status().message()).find("region"), std::string::npos);
+
+  // Fields whose int sum wraps round (issue 30) are beyond the edge too, for
+  // callers that skip the pipeline's CheckRegion.
+  for (const PixelRegion& wraps : {PixelRegion{2147483547, 0, 200, 100},
+                                   PixelRegion{0, 2147483547, 100, 200},
+                                   PixelRegion{2147483647, 2147483647, 2147483647, 2147483647}}) {
+    options.region = wraps;
+    beyond = DetectCylinder(rendered.image, options);
+    ASSERT_FALSE(beyond.ok());
+    EXPECT_NE(std::string(beyond.status().message()).find("extends beyond"), std::string::npos)
+        << beyond.status();
+  }
 }
 
 Image Uniform(int width, int height, float value) {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
+#include <utility>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -1040,34 +1041,87 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   return estimate;
 }
 
+// The region's own consistency, before any image is seen: every field >= 0,
+// and width and height given together. PixelRegion::IsEmpty needs both 0, so
+// one alone would be read as a region 0 pixels wide or high; an offset
+// without a size would be silently ignored.
+absl::Status CheckRegionFields(const PixelRegion& r) {
+  const std::pair<const char*, int> fields[] = {
+      {"roi.x_px", r.x}, {"roi.y_px", r.y}, {"roi.width_px", r.width}, {"roi.height_px", r.height}};
+  for (const auto& [name, value] : fields) {
+    if (value < 0) {
+      return absl::InvalidArgumentError(absl::StrFormat("%s must be >= 0, got %d", name, value));
+    }
+  }
+  if ((r.width == 0) != (r.height == 0)) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "roi.width_px %d with roi.height_px %d: give both (> 0), or neither for the whole image",
+        r.width, r.height));
+  }
+  if (r.IsEmpty() && (r.x != 0 || r.y != 0)) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "roi.x_px %d, roi.y_px %d given without roi.width_px and roi.height_px", r.x, r.y));
+  }
+  return absl::OkStatus();
+}
+
+// One axis of CheckRegion: [start, start + size) within [0, extent).
+absl::Status CheckSpan(const char* start_name, int start, const char* size_name, int size,
+                       const char* dimension, int extent) {
+  // 64 bits: x_px = 2147483547 with width_px = 200 wrapped round to a
+  // negative sum in int, passed, and DetectCylinder read far outside the
+  // image (SIGSEGV in weavefitd, issue 30).
+  const std::int64_t end = std::int64_t{start} + size;
+  if (end > extent) {
+    return absl::InvalidArgumentError(absl::StrFormat("%s + %s = %d exceeds the image %s %d",
+                                                      start_name, size_name, end, dimension,
+                                                      extent));
+  }
+  if (start < 0 || size <= 0) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s %d with %s %d is not a span inside the image %s %d", start_name, start, size_name,
+        size, dimension, extent));
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
+absl::Status CheckRegion(const PixelRegion& region, int width, int height) {
+  if (region.IsEmpty()) return absl::OkStatus();
+  if (absl::Status s = CheckSpan("roi.x_px", region.x, "roi.width_px", region.width, "width",
+                                 width);
+      !s.ok()) {
+    return s;
+  }
+  return CheckSpan("roi.y_px", region.y, "roi.height_px", region.height, "height", height);
+}
+
+// Numbers are printed with %g: a value 300 digits long helps nobody.
 absl::Status Acquisition::Validate() const {
   if (!(phase_angle_rad > -M_PI && phase_angle_rad < M_PI)) {
     return absl::InvalidArgumentError(absl::StrFormat(
         "phase_angle_deg must be in (-180, 180), got %g", phase_angle_rad / kDeg));
   }
-  if (!(cylinder_diameter_mm > 0.0) || !std::isfinite(cylinder_diameter_mm)) {
+  if (!(cylinder_diameter_mm >= kMinDiameterMm && cylinder_diameter_mm <= kMaxDiameterMm)) {
     return absl::InvalidArgumentError(absl::StrFormat(
-        "cylinder_diameter_mm must be > 0, got %g", cylinder_diameter_mm));
+        "cylinder_diameter_mm must be in [%g, %g] (a lab cylinder), got %g", kMinDiameterMm,
+        kMaxDiameterMm, cylinder_diameter_mm));
   }
-  if (!(camera_distance_mm >= 0.0) || !std::isfinite(camera_distance_mm)) {
+  const double radius_mm = cylinder_diameter_mm / 2.0;
+  if (camera_distance_mm != 0.0 &&
+      !(camera_distance_mm > radius_mm && camera_distance_mm <= kMaxCameraDistanceMm)) {
     return absl::InvalidArgumentError(absl::StrFormat(
-        "camera_distance_mm must be >= 0 (0 = orthographic), got %g",
-        camera_distance_mm));
+        "camera_distance_mm must be 0 (orthographic) or beyond the cylinder radius %g and at "
+        "most %g, got %g",
+        radius_mm, kMaxCameraDistanceMm, camera_distance_mm));
   }
-  if (camera_distance_mm > 0.0 && camera_distance_mm <= cylinder_diameter_mm / 2.0) {
+  if (!(saturation_level >= 0.0) || !std::isfinite(saturation_level)) {
     return absl::InvalidArgumentError(absl::StrFormat(
-        "camera_distance_mm (%g) must exceed the cylinder radius (%g)",
-        camera_distance_mm, cylinder_diameter_mm / 2.0));
+        "saturation_level must be finite and >= 0 (0 = the format's maximum), got %g",
+        saturation_level));
   }
-  if (region.x < 0 || region.y < 0 || region.width < 0 || region.height < 0) {
-    return absl::InvalidArgumentError("roi fields must be >= 0");
-  }
-  if (!(saturation_level >= 0.0)) {
-    return absl::InvalidArgumentError("saturation_level must be >= 0");
-  }
-  return absl::OkStatus();
+  return CheckRegionFields(region);
 }
 
 absl::Status EstimateOptions::Validate() const {
@@ -1137,6 +1191,9 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
                                            const EstimateOptions& options) {
   if (absl::Status s = acquisition.Validate(); !s.ok()) return s;
   if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (absl::Status s = CheckRegion(acquisition.region, image.width, image.height); !s.ok()) {
+    return s;
+  }
   Estimate estimate;
   estimate.image = {image.width, image.height, image.channels, image.format,
                     image.bit_depth, image.SaturatedCount()};
@@ -1152,16 +1209,14 @@ std::int64_t WorkingBytes(const ImageHeader& header) {
   return DecodedBytes(header) + (colour ? 4 : 0) * pixels + 4 * pixels;
 }
 
-absl::Status CheckWorkingBytes(const std::string& bytes, const EstimateOptions& options) {
+absl::Status CheckWorkingBytes(const ImageHeader& header, const EstimateOptions& options) {
   if (options.max_working_bytes == 0) return absl::OkStatus();
-  absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
-  if (!header.ok()) return header.status();
-  const std::int64_t need = WorkingBytes(*header);
+  const std::int64_t need = WorkingBytes(header);
   if (need <= options.max_working_bytes) return absl::OkStatus();
   return absl::ResourceExhaustedError(absl::StrFormat(
       "estimating this %dx%d %s photograph takes about %.0f MiB, more than the %.0f MiB "
       "allowed (the daemon's --memory-budget-mb)",
-      header->width, header->height, header->format, need / 1048576.0,
+      header.width, header.height, header.format, need / 1048576.0,
       options.max_working_bytes / 1048576.0));
 }
 
@@ -1172,13 +1227,21 @@ absl::StatusOr<Estimate> DecodeAndEstimate(const std::string& bytes, std::string
                                            const EstimateOptions& options) {
   if (absl::Status s = acquisition.Validate(); !s.ok()) return s;
   if (absl::Status s = options.Validate(); !s.ok()) return s;
-  if (absl::Status s = CheckWorkingBytes(bytes, options); !s.ok()) return s;
   Estimate estimate;
   StageClock clock(options.interrupt);
   DecodeOptions decode;
   decode.pixels_linear = acquisition.pixels_linear;
   decode.saturation_level = acquisition.saturation_level;
   decode.max_pixels = options.max_pixels;
+  // The region and the memory against the header, before DecodeImage
+  // allocates the pixels (a region far outside the image, or a
+  // decompression bomb, is refused without decoding).
+  absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
+  if (!header.ok()) return header.status();
+  if (absl::Status s = CheckRegion(acquisition.region, header->width, header->height); !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = CheckWorkingBytes(*header, options); !s.ok()) return s;
   absl::StatusOr<Image> image = DecodeImage(bytes, decode);
   if (release != nullptr) std::string().swap(*release);
   if (!image.ok()) return image.status();

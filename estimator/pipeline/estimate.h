@@ -25,13 +25,28 @@ namespace weavefit {
 // What the lab knows about the photograph, in library units.
 struct Acquisition {
   double phase_angle_rad = 0.0;        // signed, in (−π, π)
-  double cylinder_diameter_mm = 46.0;  // > 0
+  double cylinder_diameter_mm = 46.0;  // in [kMinDiameterMm, kMaxDiameterMm]
   double camera_distance_mm = 0.0;     // from the axis; 0 = orthographic
   PixelRegion region;                  // empty = whole image
   bool pixels_linear = false;          // skip sRGB decoding of 8-bit files
   double saturation_level = 0.0;       // file units; 0 = format maximum
 
-  // OK, or INVALID_ARGUMENT naming the field and the constraint it broke.
+  // The physical ranges Validate holds a request to: those of a lab cylinder
+  // with cloth wrapped round it, wide enough for any such set-up. From a
+  // 0.1 mm wire (about one thread's thickness: no weave wraps round a thinner
+  // one) to a 10 m drum (no lab photographs a larger one whole). A camera
+  // farther than 1 km from the axis is no lab set-up either; a distant one
+  // is given as 0 (orthographic). Outside them the numbers under- or
+  // overflow rather than mean anything: a 1e-300 mm diameter gave NaN
+  // standard errors marked resolved.
+  static constexpr double kMinDiameterMm = 0.1;
+  static constexpr double kMaxDiameterMm = 10000.0;
+  static constexpr double kMaxCameraDistanceMm = 1e6;
+
+  // OK, or INVALID_ARGUMENT naming the wire field and the constraint it
+  // broke. The region is checked for its own consistency here (fields >= 0,
+  // width and height both given or both 0); against the image's size by
+  // CheckRegion, once the size is known.
   absl::Status Validate() const;
   Projection GetProjection() const {
     return Projection{cylinder_diameter_mm / 2.0, camera_distance_mm};
@@ -188,6 +203,13 @@ struct Estimate {
 // against its memory budget with it. INVALID_ARGUMENT for an unreadable
 // header.
 absl::StatusOr<std::int64_t> EstimateWorkingBytes(const std::string& bytes);
+
+// OK when `region` (empty = the whole image) lies inside a width × height
+// image; otherwise INVALID_ARGUMENT naming the wire fields (roi.x_px, ...)
+// that reach past it. The sums are taken in 64 bits, so that no pair of
+// 32-bit request fields can wrap round to pass. The pipeline calls it from
+// the file's header, before any pixel is allocated, and for a decoded image.
+absl::Status CheckRegion(const PixelRegion& region, int width, int height);
 
 // Estimates from an encoded file. INVALID_ARGUMENT for undecodable or
 // inconsistent input (including "no cylinder found"), RESOURCE_EXHAUSTED when

@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_format.h"
 #include "estimator/io/encode.h"
 #include "estimator/render/render.h"
 
@@ -963,6 +965,140 @@ TEST(AcquisitionTest, InvalidAcquisitionStopsTheEstimate) {
   options.max_pixels = 0;
   EXPECT_EQ(EstimateFromImage(r.image, Lab(), options).status().code(),
             absl::StatusCode::kInvalidArgument);
+}
+
+// A region of interest past the image is INVALID_ARGUMENT naming the
+// fields, from the encoded file and from a decoded image alike. x_px =
+// 2147483547 with width_px = 200 wrapped round a 32-bit bounds check
+// (issue 30): weavefitd read far outside the image and died of SIGSEGV; all
+// four fields at 2^31 - 1 had it grow to 24 GB.
+TEST(AcquisitionTest, ARegionPastTheImageIsRefusedNamingTheFields) {
+  const Rendered& r = SinusoidRender();  // 400 × 300
+  const std::string png = Encoded(r.image, EncodeFormat::kPng16);
+  constexpr int kMax = std::numeric_limits<int>::max();
+  const std::pair<PixelRegion, std::string> cases[] = {
+      {{2147483547, 0, 200, 100},
+       "roi.x_px + roi.width_px = 2147483747 exceeds the image width 400"},
+      {{0, 2147483547, 100, 200},
+       "roi.y_px + roi.height_px = 2147483747 exceeds the image height 300"},
+      {{kMax, kMax, kMax, kMax}, "roi.x_px + roi.width_px = 4294967294 exceeds the image width 400"},
+      {{300, 0, 101, 300}, "roi.x_px + roi.width_px = 401 exceeds the image width 400"},
+      {{0, 1, 400, 300}, "roi.y_px + roi.height_px = 301 exceeds the image height 300"},
+  };
+  for (const auto& [region, message] : cases) {
+    SCOPED_TRACE(message);
+    Acquisition a = Lab();
+    a.region = region;
+    for (const absl::StatusOr<Estimate>& e :
+         {EstimateFromBytes(png, a, EstimateOptions()),
+          EstimateFromImage(r.image, a, EstimateOptions())}) {
+      ASSERT_FALSE(e.ok());
+      EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
+      EXPECT_EQ(std::string(e.status().message()), message);
+    }
+  }
+}
+
+// CheckRegion alone: inside to the last pixel, past it by one, and sums of
+// 32-bit fields that would wrap round in int.
+TEST(CheckRegionTest, SumsInSixtyFourBits) {
+  EXPECT_TRUE(CheckRegion({}, 640, 480).ok());
+  EXPECT_TRUE(CheckRegion({0, 0, 640, 480}, 640, 480).ok());
+  EXPECT_TRUE(CheckRegion({639, 479, 1, 1}, 640, 480).ok());
+  EXPECT_EQ(CheckRegion({2147483547, 0, 200, 100}, 640, 480).message(),
+            "roi.x_px + roi.width_px = 2147483747 exceeds the image width 640");
+  EXPECT_EQ(CheckRegion({0, 2147483547, 100, 200}, 640, 480).message(),
+            "roi.y_px + roi.height_px = 2147483747 exceeds the image height 480");
+  EXPECT_EQ(CheckRegion({640, 0, 1, 1}, 640, 480).message(),
+            "roi.x_px + roi.width_px = 641 exceeds the image width 640");
+  EXPECT_EQ(CheckRegion({0, 0, 10, 0}, 640, 480).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(CheckRegion({-10, 0, 20, 10}, 640, 480).code(), absl::StatusCode::kInvalidArgument);
+}
+
+// PixelRegion::IsEmpty needs width and height both 0: one alone, or an
+// offset without a size, is a request that cannot mean what it says.
+TEST(AcquisitionTest, ARegionGivesWidthAndHeightTogether) {
+  Acquisition a = Lab();
+  a.region = {0, 0, 200, 0};
+  EXPECT_EQ(Invalid(a),
+            "roi.width_px 200 with roi.height_px 0: give both (> 0), or neither for the whole "
+            "image");
+  a.region = {0, 0, 0, 200};
+  EXPECT_NE(Invalid(a).find("roi.height_px 200"), std::string::npos);
+  a.region = {10, 5, 0, 0};
+  EXPECT_EQ(Invalid(a), "roi.x_px 10, roi.y_px 5 given without roi.width_px and roi.height_px");
+  a.region = {0, -1, 10, 10};
+  EXPECT_EQ(Invalid(a), "roi.y_px must be >= 0, got -1");
+  a.region = {};
+  EXPECT_EQ(Invalid(a), "");
+  a.region = {10, 20, 30, 40};
+  EXPECT_EQ(Invalid(a), "");
+}
+
+// Each value outside the physical range of a lab set-up is refused, naming
+// its field, with the number in %g: 1e300 printed in full is 301 digits.
+TEST(AcquisitionTest, ValuesOutsideALabSetUpAreRefusedInShortMessages) {
+  struct Case {
+    const char* field;
+    double Acquisition::*member;
+    double value;
+  };
+  const Case refused[] = {
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, 1e-300},
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, 1e300},
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, 0.099},
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, 10001.0},
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, std::nan("")},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, 1e300},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, 1.001e6},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, INFINITY},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, std::nan("")},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, 1e-300},
+      {"saturation_level", &Acquisition::saturation_level, INFINITY},
+      {"saturation_level", &Acquisition::saturation_level, std::nan("")},
+      {"phase_angle_deg", &Acquisition::phase_angle_rad, 1e300},
+      {"phase_angle_deg", &Acquisition::phase_angle_rad, -INFINITY},
+  };
+  for (const Case& c : refused) {
+    SCOPED_TRACE(absl::StrFormat("%s = %g", c.field, c.value));
+    Acquisition a = Lab();
+    a.*c.member = c.value;
+    const std::string message = Invalid(a);
+    EXPECT_EQ(message.rfind(c.field, 0), 0u) << message;
+    EXPECT_LT(message.size(), 160u) << message;
+  }
+  EXPECT_NE(Invalid([] {
+              Acquisition a = Lab();
+              a.cylinder_diameter_mm = 1e300;
+              return a;
+            }()).find("got 1e+300"),
+            std::string::npos);
+
+  const Case accepted[] = {
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, 0.1},
+      {"cylinder_diameter_mm", &Acquisition::cylinder_diameter_mm, 10000.0},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, 1e6},
+      {"camera_distance_mm", &Acquisition::camera_distance_mm, 23.001},
+      {"saturation_level", &Acquisition::saturation_level, 1e30},
+  };
+  for (const Case& c : accepted) {
+    SCOPED_TRACE(absl::StrFormat("%s = %g", c.field, c.value));
+    Acquisition a = Lab();
+    a.*c.member = c.value;
+    EXPECT_EQ(Invalid(a), "");
+  }
+}
+
+// A 1e-300 mm cylinder used to be estimated, its standard errors NaN and
+// marked resolved (issue 30): now it never reaches the estimate.
+TEST(AcquisitionTest, ATinyDiameterIsRefusedNotAnsweredWithNaN) {
+  Acquisition a = Lab();
+  a.cylinder_diameter_mm = 1e-300;
+  const absl::StatusOr<Estimate> e = EstimateFromImage(SinusoidRender().image, a,
+                                                       EstimateOptions());
+  ASSERT_FALSE(e.ok()) << "estimated: " << e->BriefReport();
+  EXPECT_EQ(e.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(e.status().message()).find("cylinder_diameter_mm"), std::string::npos);
 }
 
 TEST(AcquisitionTest, ProjectionFromTheAcquisition) {

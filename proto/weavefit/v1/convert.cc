@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 #ifndef WEAVEFIT_VERSION
 #define WEAVEFIT_VERSION "unknown"
@@ -46,27 +47,62 @@ Quantity QuantityFromProto(const v1::Measurement& m) {
                       : Quantity{0.0, 0.0, false, m.upper_bound()};
 }
 
-void SetMeasurement(const Quantity& q, double scale, v1::Measurement* out) {
+using Warnings = google::protobuf::RepeatedPtrField<std::string>;
+
+// Sets `out` to `q` times `scale`. A resolved quantity whose value or errors
+// are not finite (NaN or infinity: a stage broke down without saying so) is
+// sent unresolved, with a warning naming `field`, never as a measurement:
+// a client must be able to trust every number marked resolved.
+void SetMeasurement(const Quantity& q, double scale, const std::string& field,
+                    v1::Measurement* out, Warnings* warnings) {
+  out->Clear();
+  const double value = q.value * scale;
+  const double stderr_value = q.stderr_value * scale;
+  const double systematic = std::min(q.systematic, q.stderr_value) * scale;
+  const double common = std::min({q.common, q.systematic, q.stderr_value}) * scale;
+  const double statistical = q.Statistical() * scale;
   if (!q.resolved) {
-    out->Clear();
-    out->set_upper_bound(q.upper_bound * scale);
+    const double bound = q.upper_bound * scale;
+    out->set_upper_bound(std::isfinite(bound) ? bound : 0.0);  // 0 = none
     return;
   }
-  out->set_value(q.value * scale);
-  out->set_stderr(q.stderr_value * scale);
+  if (!std::isfinite(value) || !std::isfinite(stderr_value) || !std::isfinite(systematic) ||
+      !std::isfinite(common) || !std::isfinite(statistical)) {
+    *warnings->Add() = absl::StrFormat(
+        "%s came out as %g +- %g, not a finite number: left unresolved. Check the acquisition "
+        "metadata (phase angle, cylinder diameter, camera distance) against the photograph, "
+        "and report the photograph if it is right",
+        field, value, stderr_value);
+    return;
+  }
+  out->set_value(value);
+  out->set_stderr(stderr_value);
   out->set_resolved(true);
-  out->set_statistical(q.Statistical() * scale);
-  out->set_systematic(std::min(q.systematic, q.stderr_value) * scale);
-  out->set_systematic_common(std::min({q.common, q.systematic, q.stderr_value}) * scale);
+  out->set_statistical(statistical);
+  out->set_systematic(systematic);
+  out->set_systematic_common(common);
+}
+
+// The wire's mode: MODE_UNSPECIFIED is the server's default, BALANCED.
+absl::StatusOr<Mode> ModeFromProto(int mode) {
+  switch (mode) {
+    case v1::MODE_UNSPECIFIED:
+    case v1::BALANCED:
+      return Mode::kBalanced;
+    case v1::FAST:
+      return Mode::kFast;
+    case v1::ACCURATE:
+      return Mode::kAccurate;
+    default:
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "options.mode %d is not a known mode (FAST, BALANCED, ACCURATE)", mode));
+  }
 }
 
 }  // namespace
 
 absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto) {
   Acquisition acq;
-  if (!std::isfinite(proto.phase_angle_deg())) {
-    return absl::InvalidArgumentError("phase_angle_deg must be a finite number");
-  }
   acq.phase_angle_rad = proto.phase_angle_deg() * kDeg;
   acq.cylinder_diameter_mm =
       proto.cylinder_diameter_mm() == 0.0 ? 46.0 : proto.cylinder_diameter_mm();
@@ -75,24 +111,18 @@ absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto) {
                 proto.roi().height_px()};
   acq.pixels_linear = proto.pixels_linear();
   acq.saturation_level = proto.saturation_level();
+  // Every range is checked in Acquisition::Validate alone (NaN and infinite
+  // phase angles included), so the daemon and the in-process client agree.
   if (absl::Status s = acq.Validate(); !s.ok()) return s;
   return acq;
 }
 
-EstimateOptions OptionsFromProto(const v1::EstimateOptions& proto,
-                                 const EstimateOptions& base) {
+absl::StatusOr<EstimateOptions> OptionsFromProto(const v1::EstimateOptions& proto,
+                                                 const EstimateOptions& base) {
+  absl::StatusOr<Mode> mode = ModeFromProto(proto.mode());
+  if (!mode.ok()) return mode.status();
   EstimateOptions options = base;
-  switch (proto.mode()) {
-    case v1::FAST:
-      options.mode = Mode::kFast;
-      break;
-    case v1::ACCURATE:
-      options.mode = Mode::kAccurate;
-      break;
-    default:
-      options.mode = Mode::kBalanced;
-      break;
-  }
+  options.mode = *mode;
   options.include_curves = proto.include_curves();
   return options;
 }
@@ -101,13 +131,17 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
                                     const std::string& sample_name) {
   v1::EstimateReply reply;
   reply.set_model(ModelToProto(e.model));
-  SetMeasurement(e.peak_spacing_rad, 1.0 / kDeg, reply.mutable_peak_spacing_deg());
-  SetMeasurement(e.max_slope, 1.0, reply.mutable_max_slope());
-  SetMeasurement(e.max_inclination_rad, 1.0 / kDeg, reply.mutable_max_inclination_deg());
-  SetMeasurement(e.wavelength_mm, 1.0, reply.mutable_wavelength_mm());
-  SetMeasurement(e.amplitude_mm, 1.0, reply.mutable_amplitude_mm());
-  SetMeasurement(e.specular_azimuth_rad, 1.0 / kDeg,
-                 reply.mutable_specular_azimuth_deg());
+  for (const std::string& w : e.warnings) reply.add_warnings(w);
+  Warnings* warnings = reply.mutable_warnings();
+  SetMeasurement(e.peak_spacing_rad, 1.0 / kDeg, "peak_spacing_deg",
+                 reply.mutable_peak_spacing_deg(), warnings);
+  SetMeasurement(e.max_slope, 1.0, "max_slope", reply.mutable_max_slope(), warnings);
+  SetMeasurement(e.max_inclination_rad, 1.0 / kDeg, "max_inclination_deg",
+                 reply.mutable_max_inclination_deg(), warnings);
+  SetMeasurement(e.wavelength_mm, 1.0, "wavelength_mm", reply.mutable_wavelength_mm(), warnings);
+  SetMeasurement(e.amplitude_mm, 1.0, "amplitude_mm", reply.mutable_amplitude_mm(), warnings);
+  SetMeasurement(e.specular_azimuth_rad, 1.0 / kDeg, "specular_azimuth_deg",
+                 reply.mutable_specular_azimuth_deg(), warnings);
   v1::Cylinder* c = reply.mutable_cylinder();
   c->set_center_x_px(e.cylinder.center_x_px);
   c->set_radius_px(e.cylinder.radius_px);
@@ -125,7 +159,6 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
     out->set_score(candidate.score);
     out->set_selected(candidate.selected);
   }
-  for (const std::string& w : e.warnings) reply.add_warnings(w);
   for (const StageTime& t : e.timings) {
     v1::StageTiming* out = reply.add_timings();
     out->set_stage(t.stage);
@@ -142,8 +175,11 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
     v1::ChannelSummary* out = reply.add_channels();
     out->set_channel(c.channel);
     out->set_model(ModelToProto(c.model));
-    SetMeasurement(c.peak_spacing_rad, 1.0 / kDeg, out->mutable_peak_spacing_deg());
-    SetMeasurement(c.specular_azimuth_rad, 1.0 / kDeg, out->mutable_specular_azimuth_deg());
+    const std::string channel = absl::StrCat("channels[", c.channel, "].");
+    SetMeasurement(c.peak_spacing_rad, 1.0 / kDeg, channel + "peak_spacing_deg",
+                   out->mutable_peak_spacing_deg(), warnings);
+    SetMeasurement(c.specular_azimuth_rad, 1.0 / kDeg, channel + "specular_azimuth_deg",
+                   out->mutable_specular_azimuth_deg(), warnings);
     out->set_lobe_level(c.lobe_level);
     out->set_grazing_level(c.grazing_level);
   }
@@ -216,17 +252,21 @@ v1::JointEstimate JointToProto(const JointEstimate& joint,
                                const std::vector<std::string>& photographs) {
   v1::JointEstimate out;
   out.set_model(ModelToProto(joint.model));
-  SetMeasurement(joint.peak_spacing_rad, 1.0 / kDeg, out.mutable_peak_spacing_deg());
-  SetMeasurement(joint.max_slope, 1.0, out.mutable_max_slope());
-  SetMeasurement(joint.max_inclination_rad, 1.0 / kDeg, out.mutable_max_inclination_deg());
-  SetMeasurement(joint.wavelength_mm, 1.0, out.mutable_wavelength_mm());
-  SetMeasurement(joint.amplitude_mm, 1.0, out.mutable_amplitude_mm());
+  for (const std::string& w : joint.warnings) out.add_warnings(w);
+  Warnings* warnings = out.mutable_warnings();
+  SetMeasurement(joint.peak_spacing_rad, 1.0 / kDeg, "peak_spacing_deg",
+                 out.mutable_peak_spacing_deg(), warnings);
+  SetMeasurement(joint.max_slope, 1.0, "max_slope", out.mutable_max_slope(), warnings);
+  SetMeasurement(joint.max_inclination_rad, 1.0 / kDeg, "max_inclination_deg",
+                 out.mutable_max_inclination_deg(), warnings);
+  SetMeasurement(joint.wavelength_mm, 1.0, "wavelength_mm", out.mutable_wavelength_mm(),
+                 warnings);
+  SetMeasurement(joint.amplitude_mm, 1.0, "amplitude_mm", out.mutable_amplitude_mm(), warnings);
   for (const std::string& p : photographs) out.add_photographs(p);
   out.set_slope_photographs(joint.slope_photographs);
   out.set_wavelength_photographs(joint.wavelength_photographs);
   out.set_slope_chi2(joint.slope_chi2);
   out.set_wavelength_chi2(joint.wavelength_chi2);
-  for (const std::string& w : joint.warnings) out.add_warnings(w);
   return out;
 }
 

@@ -18,10 +18,13 @@ namespace weavefit {
 // INVALID_ARGUMENT naming the wire field that is wrong.
 absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto);
 // The library's options for a request (mode), on top of `base`.
-EstimateOptions OptionsFromProto(const v1::EstimateOptions& proto,
-                                 const EstimateOptions& base);
+// MODE_UNSPECIFIED is BALANCED; a value the enum does not know (a newer
+// client's, or a corrupt one) is INVALID_ARGUMENT naming options.mode.
+absl::StatusOr<EstimateOptions> OptionsFromProto(const v1::EstimateOptions& proto,
+                                                 const EstimateOptions& base);
 
-// The reply for an estimate (radians → degrees).
+// The reply for an estimate (radians → degrees). A quantity that is resolved
+// but not finite is sent unresolved with a warning (also in JointToProto).
 v1::EstimateReply ReplyFromEstimate(const Estimate& estimate,
                                     const std::string& sample_name);
 
