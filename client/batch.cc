@@ -130,6 +130,126 @@ absl::Status ManifestError(const std::string& name, int line, const std::string&
   return absl::InvalidArgumentError(absl::StrCat(name, ":", line, ": ", what));
 }
 
+// One batch's retries, shared by its workers: the jitter's generator, the
+// hooks' lock and since when the daemon has been gone.
+class BatchRun {
+ public:
+  BatchRun(const RetryPolicy& policy, const BatchHooks& hooks)
+      : policy_(policy), hooks_(hooks), generator_(std::random_device{}()) {}
+
+  // Image `index`, attempted until it succeeds, fails for good or runs out
+  // of retries or of reconnect window; on_done called.
+  ImageOutcome Image(std::size_t index) {
+    const auto start = std::chrono::steady_clock::now();
+    ImageOutcome outcome;
+    int retries = 0;
+    do {
+      ++outcome.attempts;
+      outcome.reply = hooks_.estimate(index);
+    } while (TryAgain(index, &outcome.reply, &retries));
+    outcome.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (hooks_.on_done) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      hooks_.on_done(index, outcome);
+    }
+    return outcome;
+  }
+
+ private:
+  // Whether image `index` is tried again after `reply`: at once when a gone
+  // daemon is back, after a backoff (one of `retries` spent) when retries
+  // are left. A daemon not back within the window becomes the reply.
+  bool TryAgain(std::size_t index, absl::StatusOr<v1::EstimateReply>* reply, int* retries) {
+    const absl::StatusCode code = reply->status().code();
+    // Anything but these means a daemon answered (or the image needed none,
+    // as when its file is unreadable): an outage is over.
+    if (code != absl::StatusCode::kUnavailable && code != absl::StatusCode::kDeadlineExceeded) {
+      OutageOver();
+    }
+    if (reply->ok() || !IsRetryable(code)) return false;
+    if (code == absl::StatusCode::kUnavailable && WaitsForDaemon()) {
+      const Reconnect reconnect = AwaitDaemon(index, reply->status());
+      if (reconnect == Reconnect::kBack) return true;  // no retry spent
+      if (reconnect == Reconnect::kGone) {
+        *reply = NotBack(reply->status());
+        return false;
+      }
+    }
+    if (*retries >= policy_.max_retries) return false;
+    const int retry = ++*retries;
+    const double wait_s = BackoffSeconds(policy_, retry, Uniform());
+    if (hooks_.on_retry) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      hooks_.on_retry(index, reply->status(), retry, wait_s);
+    }
+    Sleep(wait_s);
+    return true;
+  }
+
+  bool WaitsForDaemon() const { return hooks_.await_daemon && policy_.reconnect_window_s > 0.0; }
+
+  // Waits for the channel for what is left of the window, which starts at
+  // the first UNAVAILABLE since a daemon last answered: one clock for the
+  // whole batch, so that a daemon that stays away costs each later image
+  // nothing more than a look at the channel.
+  Reconnect AwaitDaemon(std::size_t index, const absl::Status& failure) {
+    const double start_s = Now();
+    double left_s;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!gone_since_s_) gone_since_s_ = start_s;
+      left_s = std::max(0.0, *gone_since_s_ + policy_.reconnect_window_s - start_s);
+    }
+    const Reconnect reconnect = hooks_.await_daemon(left_s);
+    if (reconnect == Reconnect::kBack && hooks_.on_reconnected) {
+      const double waited_s = Now() - start_s;
+      std::lock_guard<std::mutex> lock(mutex_);
+      hooks_.on_reconnected(index, failure, waited_s);
+    }
+    return reconnect;
+  }
+
+  // Only an answer ends an outage, not a reconnection: a daemon that
+  // crashes on every call would otherwise hold the batch forever.
+  void OutageOver() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    gone_since_s_.reset();
+  }
+
+  absl::Status NotBack(const absl::Status& failure) const {
+    return absl::UnavailableError(absl::StrCat("the daemon did not come back within ",
+                                               policy_.reconnect_window_s,
+                                               " s (--reconnect-window-s): ", failure.message()));
+  }
+
+  double Uniform() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (hooks_.uniform) return hooks_.uniform();
+    return std::uniform_real_distribution<double>(0.0, 1.0)(generator_);
+  }
+
+  void Sleep(double seconds) const {
+    if (hooks_.sleep) {
+      hooks_.sleep(seconds);
+    } else {
+      std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    }
+  }
+
+  double Now() const {
+    if (hooks_.now) return hooks_.now();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+
+  const RetryPolicy& policy_;
+  const BatchHooks& hooks_;
+  std::mutex mutex_;  // guards the generator, gone_since_s_ and the hooks' calls
+  std::mt19937_64 generator_;
+  std::optional<double> gone_since_s_;  // Now() at the outage's first UNAVAILABLE
+};
+
 }  // namespace
 
 bool HasImageExtension(const std::string& path) {
@@ -453,45 +573,11 @@ double BackoffSeconds(const RetryPolicy& policy, int retry, double uniform01) {
 std::vector<ImageOutcome> RunBatch(std::size_t count, int jobs, const RetryPolicy& policy,
                                    const BatchHooks& hooks) {
   std::vector<ImageOutcome> outcomes(count);
-  std::mutex mutex;  // guards the generator, on_done and on_retry
-  std::mt19937_64 generator{std::random_device{}()};
-  const auto uniform = [&]() {
-    std::lock_guard<std::mutex> lock(mutex);
-    if (hooks.uniform) return hooks.uniform();
-    return std::uniform_real_distribution<double>(0.0, 1.0)(generator);
-  };
-  const auto sleep = [&](double seconds) {
-    if (hooks.sleep) {
-      hooks.sleep(seconds);
-    } else {
-      std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
-    }
-  };
+  BatchRun batch(policy, hooks);
   std::atomic<std::size_t> next{0};
   const auto work = [&]() {
     for (std::size_t index = next++; index < count; index = next++) {
-      const auto start = std::chrono::steady_clock::now();
-      ImageOutcome& outcome = outcomes[index];
-      for (int attempt = 1;; ++attempt) {
-        outcome.attempts = attempt;
-        outcome.reply = hooks.estimate(index);
-        if (outcome.reply.ok() || !IsRetryable(outcome.reply.status().code()) ||
-            attempt > policy.max_retries) {
-          break;
-        }
-        const double wait_s = BackoffSeconds(policy, attempt, uniform());
-        if (hooks.on_retry) {
-          std::lock_guard<std::mutex> lock(mutex);
-          hooks.on_retry(index, outcome.reply.status(), attempt, wait_s);
-        }
-        sleep(wait_s);
-      }
-      outcome.seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if (hooks.on_done) {
-        std::lock_guard<std::mutex> lock(mutex);
-        hooks.on_done(index, outcome);
-      }
+      outcomes[index] = batch.Image(index);
     }
   };
   const std::size_t threads = std::min<std::size_t>(std::max(1, jobs), count);

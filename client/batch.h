@@ -143,6 +143,11 @@ struct RetryPolicy {
   double initial_backoff_s = 0.5;  // ceiling of the first retry's wait
   double multiplier = 2.0;         // the ceiling's growth per retry
   double max_backoff_s = 10.0;     // ceiling of any wait
+  // How long the batch waits for a daemon that is gone (calls UNAVAILABLE
+  // and the channel not connected) to be reachable again, s, from when it
+  // was found gone; such waits spend no retries. 0 = UNAVAILABLE is retried
+  // with the backoff above like the other retryable codes.
+  double reconnect_window_s = 30.0;
 };
 
 // UNAVAILABLE (no daemon answered, or one went away mid-call), RESOURCE_
@@ -170,13 +175,29 @@ struct ImageOutcome {
   double seconds = 0.0;  // wall time, retries and waits included
 };
 
+// What became of a wait for the daemon after an UNAVAILABLE call.
+enum class Reconnect {
+  kConnected,  // the channel was connected all along: a daemon answered
+               // UNAVAILABLE itself, or another daemon is up; plain backoff
+  kBack,       // it was not connected and now is: retry at once
+  kGone,       // still not connected when the wait ran out
+};
+
 struct BatchHooks {
   // One attempt at image `index`. Called from the worker threads.
   std::function<absl::StatusOr<v1::EstimateReply>(std::size_t index)> estimate;
+  // After an UNAVAILABLE attempt: waits up to `timeout_s` (≥ 0) for the
+  // channel to connect. Called from several workers at once; it must block,
+  // not poll. Optional: without it UNAVAILABLE gets the plain backoff.
+  std::function<Reconnect(double timeout_s)> await_daemon;
   // Before each retry: the image, the failure, the retry number and the
   // wait, s. Optional.
   std::function<void(std::size_t index, const absl::Status& failure, int retry,
                      double wait_s)> on_retry;
+  // After a wait for the daemon that saw it back: the image, the failure
+  // that started the wait and the wait, s. Optional.
+  std::function<void(std::size_t index, const absl::Status& failure, double waited_s)>
+      on_reconnected;
   // Once per image when it is finished. Never two calls at once. Optional.
   std::function<void(std::size_t index, const ImageOutcome& outcome)> on_done;
   // Waits; default std::this_thread::sleep_for (tests record instead).
@@ -184,11 +205,18 @@ struct BatchHooks {
   // Uniform draws in [0, 1) for the jitter; default a generator seeded from
   // std::random_device (the jitter exists to differ between clients).
   std::function<double()> uniform;
+  // A monotonic clock, s; default std::chrono::steady_clock (tests give one
+  // that their await_daemon advances).
+  std::function<double()> now;
 };
 
 // Estimates images 0 … count−1 on min(jobs, count) threads (jobs ≥ 1),
-// each retried per `policy` while its status IsRetryable. The outcomes by
-// index.
+// each retried per `policy` while its status IsRetryable. An UNAVAILABLE
+// attempt, with await_daemon given and a reconnect window, first waits for
+// the daemon: back, the image is tried again at once, without spending a
+// retry; not back within the window, counted from when the batch found the
+// daemon gone (and reset when one answers), the image fails UNAVAILABLE,
+// "the daemon did not come back within N s". The outcomes by index.
 std::vector<ImageOutcome> RunBatch(std::size_t count, int jobs, const RetryPolicy& policy,
                                    const BatchHooks& hooks);
 

@@ -432,6 +432,133 @@ TEST(RunBatchTest, NoMoreCallsInFlightThanJobs) {
   EXPECT_TRUE(RunBatch(0, 4, RetryPolicy(), hooks).empty());
 }
 
+// A daemon on a fake clock, s: gone during the outages [from, to), up
+// otherwise; each answered call takes 1 s. One worker (jobs 1) drives it.
+struct FakeDaemon {
+  std::vector<std::pair<double, double>> outages;
+  double now = 0.0;
+  std::vector<double> wait_timeouts;  // what await_daemon was given
+
+  bool Up() const {
+    for (const auto& [from, to] : outages) {
+      if (now >= from && now < to) return false;
+    }
+    return true;
+  }
+  // When the outage around `now` ends.
+  double BackAt() const {
+    for (const auto& [from, to] : outages) {
+      if (now >= from && now < to) return to;
+    }
+    return now;
+  }
+  BatchHooks Hooks() {
+    BatchHooks hooks;
+    hooks.estimate = [this](std::size_t i) -> absl::StatusOr<v1::EstimateReply> {
+      if (!Up()) return absl::UnavailableError("failed to connect: Connection refused");
+      now += 1.0;
+      return Reply(std::to_string(i), 0.2);
+    };
+    hooks.await_daemon = [this](double timeout_s) {
+      wait_timeouts.push_back(timeout_s);
+      if (Up()) return Reconnect::kConnected;
+      if (BackAt() - now <= timeout_s) {
+        now = BackAt();
+        return Reconnect::kBack;
+      }
+      now += timeout_s;
+      return Reconnect::kGone;
+    };
+    hooks.sleep = [this](double seconds) { now += seconds; };
+    hooks.now = [this] { return now; };
+    hooks.uniform = [] { return 0.0; };
+    return hooks;
+  }
+};
+
+// Issue 30: a daemon restarted 12 s after it went away, longer than the
+// three retries' backoff (0.25 + 0.5 + 1 s) lasts.
+TEST(ReconnectTest, AnImageWaitsForTheDaemonWithinTheWindowSpendingNoRetries) {
+  FakeDaemon daemon;
+  daemon.outages = {{0.0, 12.0}};
+  BatchHooks hooks = daemon.Hooks();
+  int retries = 0;
+  std::vector<double> reconnected_after_s;
+  hooks.on_retry = [&](std::size_t, const absl::Status&, int, double) { ++retries; };
+  hooks.on_reconnected = [&](std::size_t i, const absl::Status& failure, double waited_s) {
+    EXPECT_EQ(i, 0u);
+    EXPECT_EQ(failure.code(), absl::StatusCode::kUnavailable);
+    reconnected_after_s.push_back(waited_s);
+  };
+  const std::vector<ImageOutcome> outcomes = RunBatch(3, 1, RetryPolicy(), hooks);
+  for (const ImageOutcome& o : outcomes) EXPECT_TRUE(o.reply.ok()) << o.reply.status();
+  EXPECT_EQ(outcomes[0].attempts, 2);
+  EXPECT_EQ(retries, 0);
+  EXPECT_EQ(reconnected_after_s, std::vector<double>{12.0});
+  EXPECT_EQ(daemon.wait_timeouts, std::vector<double>{30.0});  // the default window
+
+  // Without the window, the retries run out while the daemon is away.
+  FakeDaemon again;
+  again.outages = {{0.0, 12.0}};
+  RetryPolicy no_window;
+  no_window.reconnect_window_s = 0.0;
+  const std::vector<ImageOutcome> lost = RunBatch(3, 1, no_window, again.Hooks());
+  EXPECT_EQ(lost[0].reply.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(lost[0].attempts, 4);
+  EXPECT_TRUE(again.wait_timeouts.empty());
+}
+
+TEST(ReconnectTest, AnImageIsLostWhenTheDaemonIsNotBackWithinTheWindow) {
+  FakeDaemon daemon;
+  daemon.outages = {{0.0, 45.0}};
+  RetryPolicy policy;
+  policy.reconnect_window_s = 20.0;
+  const std::vector<ImageOutcome> outcomes = RunBatch(3, 1, policy, daemon.Hooks());
+  for (const ImageOutcome& o : outcomes) {
+    EXPECT_EQ(o.reply.status().code(), absl::StatusCode::kUnavailable);
+    EXPECT_EQ(o.attempts, 1);  // no retries spent on a gone daemon either
+    EXPECT_EQ(o.reply.status().message(),
+              "the daemon did not come back within 20 s (--reconnect-window-s): failed to "
+              "connect: Connection refused");
+  }
+  // The window is the batch's: the images after the first only look.
+  EXPECT_EQ(daemon.wait_timeouts, (std::vector<double>{20.0, 0.0, 0.0}));
+  EXPECT_EQ(daemon.now, 20.0);
+}
+
+TEST(ReconnectTest, AnAnswerStartsTheWindowAfresh) {
+  FakeDaemon daemon;
+  daemon.outages = {{0.0, 25.0}, {30.0, 55.0}};  // 25 s each, 5 images between
+  const std::vector<ImageOutcome> outcomes = RunBatch(10, 1, RetryPolicy(), daemon.Hooks());
+  for (const ImageOutcome& o : outcomes) EXPECT_TRUE(o.reply.ok()) << o.reply.status();
+  EXPECT_EQ(daemon.wait_timeouts, (std::vector<double>{30.0, 30.0}));
+}
+
+// A connected channel with UNAVAILABLE calls (a daemon says so itself, or
+// one of several is down) and other retryable codes keep the backoff.
+TEST(ReconnectTest, OtherFailuresKeepTheBackoff) {
+  int awaits = 0;
+  std::vector<double> waits;
+  BatchHooks hooks;
+  hooks.estimate = [](std::size_t i) -> absl::StatusOr<v1::EstimateReply> {
+    if (i == 0) return absl::UnavailableError("shutting down");
+    return absl::ResourceExhaustedError("queue full");
+  };
+  hooks.await_daemon = [&](double) {
+    ++awaits;
+    return Reconnect::kConnected;
+  };
+  hooks.sleep = [&](double s) { waits.push_back(s); };
+  hooks.uniform = [] { return 0.0; };
+  const std::vector<ImageOutcome> outcomes = RunBatch(2, 1, RetryPolicy(), hooks);
+  EXPECT_EQ(outcomes[0].reply.status().message(), "shutting down");
+  EXPECT_EQ(outcomes[0].attempts, 4);
+  EXPECT_EQ(outcomes[1].reply.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_EQ(outcomes[1].attempts, 4);
+  EXPECT_EQ(awaits, 4);  // after each of image 0's attempts only
+  EXPECT_EQ(waits, (std::vector<double>{0.25, 0.5, 1.0, 0.25, 0.5, 1.0}));
+}
+
 TEST(ReportingTest, ProgressAndFailureSummary) {
   EXPECT_EQ(ProgressLine(12, 30, 1), "12/30 done, 1 failed");
   EXPECT_EQ(FailureSummary({}, 30), "");

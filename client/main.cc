@@ -230,8 +230,15 @@ void AddSubmitFlags(CLI::App* app, SubmitFlags* flags) {
       ->capture_default_str();
   app->add_option("--retries", flags->retry.max_retries,
                   "retries per image on UNAVAILABLE, RESOURCE_EXHAUSTED and DEADLINE_EXCEEDED, "
-                  "with exponential backoff and jitter")
+                  "with exponential backoff and jitter (a daemon that is gone is waited for "
+                  "instead: --reconnect-window-s)")
       ->check(CLI::Range(0, 20))
+      ->capture_default_str();
+  app->add_option("--reconnect-window-s", flags->retry.reconnect_window_s,
+                  "when the daemon is gone (UNAVAILABLE, not connected), wait up to this long, "
+                  "s, from when it was found gone, for it to be back, spending no retries; an "
+                  "image is lost only when it is not back by then (0 = plain retries)")
+      ->check(CLI::Range(0.0, 3600.0))
       ->capture_default_str();
   app->add_flag("--quiet", flags->quiet, "no progress or retry lines on stderr");
   app->add_option("--plot", flags->plot_dir,

@@ -72,7 +72,8 @@ absl::StatusOr<ChannelTarget> ChannelTargetFor(const std::string& server,
 extern const char kRoundRobinServiceConfig[];
 
 // A channel with the credentials and keepalive settings the daemon expects,
-// spread over every address of the target with round_robin.
+// spread over every address of the target with round_robin, which tries to
+// reconnect to a lost daemon every 0.25 s at first and every 1 s at most.
 absl::StatusOr<std::shared_ptr<grpc::Channel>> MakeChannel(const Connection& connection);
 
 // One channel for many calls: a batch sets its connections up once and
@@ -93,6 +94,16 @@ class Client {
   // one. The deadline is the connection's timeout_s per photograph.
   absl::StatusOr<v1::JointEstimateReply> EstimateJoint(std::vector<v1::RequestHeader> headers,
                                                        const std::vector<std::string>& bytes) const;
+
+  // True when the channel has a connection ready for calls (to any daemon
+  // of the target); asks it to connect when it is idle.
+  bool Connected() const;
+
+  // Blocks until the channel is connected or `timeout_s` has passed (0 =
+  // one look); true when connected. Asks it to connect, and it retries
+  // every second at most (MakeChannel), so a daemon that comes back is
+  // found within about a second. Many threads may wait at once.
+  bool WaitForConnected(double timeout_s) const;
 
  private:
   Client(Connection connection, std::shared_ptr<grpc::Channel> channel)

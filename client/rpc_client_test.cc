@@ -1,14 +1,27 @@
 // Unit tests of client/rpc_client: the gRPC target a --server value becomes
-// (names resolved by a fake, so no DNS), and the bearer token's sources.
+// (names resolved by a fake, so no DNS), the bearer token's sources, and
+// waiting for a server to come up (an in-process one on loopback).
 #include "client/rpc_client.h"
 
+#include <arpa/inet.h>
+#include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <stdlib.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <fstream>
+#include <iostream>
 #include <map>
+#include <thread>
+#include <vector>
 
 #include "tests/temp_dir.h"
+#include "weavefit/v1/weavefit.grpc.pb.h"
 
 namespace weavefit {
 namespace {
@@ -131,6 +144,67 @@ TEST(ClientTest, ConnectRefusesABadServerList) {
   EXPECT_EQ(Client::Connect(c).status().code(), absl::StatusCode::kInvalidArgument);
   c.server = "127.0.0.1:1,127.0.0.1:2";
   EXPECT_TRUE(Client::Connect(c).ok());  // no connection is made until a call
+}
+
+// A loopback port nothing listens on (yet).
+int FreePort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof(address);
+  bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address));
+  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+  close(fd);
+  return ntohs(address.sin_port);
+}
+
+// CPU time of this process so far, user and system, s.
+double CpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+// Four waiters on one channel while its server is away, as the workers of a
+// batch are when the daemon restarts (issue 30): each sees the server once
+// it listens, and none burns CPU meanwhile.
+TEST(ClientTest, WaitersBlockUntilTheServerListens) {
+  const std::string address = "127.0.0.1:" + std::to_string(FreePort());
+  Connection c;
+  c.server = address;
+  absl::StatusOr<Client> client = Client::Connect(c);
+  ASSERT_TRUE(client.ok()) << client.status();
+  EXPECT_FALSE(client->Connected());
+  EXPECT_FALSE(client->WaitForConnected(0.0));
+  EXPECT_FALSE(client->WaitForConnected(0.3));
+
+  const double cpu_before_s = CpuSeconds();
+  std::atomic<int> connected{0};
+  std::vector<std::thread> waiters;
+  for (int w = 0; w < 4; ++w) {
+    waiters.emplace_back([&] { connected += client->WaitForConnected(30.0) ? 1 : 0; });
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  // The service unimplemented: connecting needs none, but gRPC wants one.
+  v1::WeaveFit::Service service;
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(address, grpc::InsecureServerCredentials());
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  const auto listening = std::chrono::steady_clock::now();
+  for (std::thread& w : waiters) w.join();
+  ASSERT_NE(server, nullptr);
+  const double found_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - listening).count();
+  const double cpu_s = CpuSeconds() - cpu_before_s;
+  std::cout << "connected " << found_s << " s after the server listened; " << cpu_s
+            << " s of CPU for 4 waiters over " << 1.5 + found_s << " s\n";
+  EXPECT_EQ(connected.load(), 4);
+  EXPECT_TRUE(client->Connected());
+  EXPECT_LT(cpu_s, 1.0);  // polling threads would use their cores' whole time
+  server->Shutdown();
 }
 
 }  // namespace

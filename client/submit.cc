@@ -123,6 +123,12 @@ class Progress {
                          retry, max_retries, wait_s));
   }
 
+  void Reconnected(const std::string& image, const absl::Status& failure, double waited_s) {
+    if (quiet_) return;
+    Note(absl::StrFormat("weavefit: %s: %s; connected again after %.1f s, trying again", image,
+                         StatusLine(failure), waited_s));
+  }
+
   void Done(const std::string& image, const ImageOutcome& outcome) {
     ++done_;
     if (!outcome.reply.ok()) ++failed_;
@@ -345,6 +351,13 @@ int RunSubmit(SubmitFlags flags) {
   };
   hooks.on_retry = [&](std::size_t k, const absl::Status& failure, int retry, double wait_s) {
     progress.Retry(images[todo[k]], failure, retry, flags.retry.max_retries, wait_s);
+  };
+  hooks.await_daemon = [&](double timeout_s) {
+    if (client->Connected()) return Reconnect::kConnected;
+    return client->WaitForConnected(timeout_s) ? Reconnect::kBack : Reconnect::kGone;
+  };
+  hooks.on_reconnected = [&](std::size_t k, const absl::Status& failure, double waited_s) {
+    progress.Reconnected(images[todo[k]], failure, waited_s);
   };
   hooks.on_done = [&](std::size_t k, const ImageOutcome& outcome) {
     const std::string& image = images[todo[k]];
