@@ -266,8 +266,9 @@ TEST(Hardening, SigtermDrainsCallsInFlightAndRefusesNewOnes) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   daemon.Signal(SIGTERM);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  // New calls are refused while the one in flight finishes.
-  const CommandResult refused = Submit(daemon, {});
+  // New calls are refused while the one in flight finishes (the client is
+  // told not to wait for a daemon to come back: this one will not).
+  const CommandResult refused = Submit(daemon, {"--reconnect-window-s", "0"});
   EXPECT_EQ(refused.exit_code, 14) << refused.out << refused.err;
   message.set_chunk(ReadFileOrDie(kImage));
   ASSERT_TRUE(writer->Write(message));
