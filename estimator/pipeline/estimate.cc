@@ -1203,6 +1203,11 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
 
 namespace {
 
+// EstimateWorkingBytes from a header: what decoding holds, the luminance
+// copy of a colour image (4 bytes a pixel), and a float a pixel for the
+// detection's band profiles, the profile and the arc signals (together far
+// less; measured on a 7999x7999 16-bit RGBA PNG: 1.25 GiB counted here,
+// 1.02 GiB peak resident set of the daemon that estimated it).
 std::int64_t WorkingBytes(const ImageHeader& header) {
   const std::int64_t pixels = std::int64_t{header.width} * header.height;
   const bool colour = header.samples == 0 || header.samples >= 3;
