@@ -791,6 +791,40 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
       "count the comb");
 }
 
+// The cylinder the photograph is read through: the given one
+// (GeometryFromGiven) when the acquisition has one, else detected on the
+// photograph. Sets estimate->cylinder and ->cylinder_source, and the
+// warning that says where it came from.
+absl::StatusOr<CylinderGeometry> CylinderFor(const Image& luminance,
+                                             const Acquisition& acquisition,
+                                             const EstimateOptions& options, Estimate* estimate) {
+  if (acquisition.given_cylinder) {
+    absl::StatusOr<CylinderGeometry> given =
+        GeometryFromGiven(*acquisition.given_cylinder, luminance.width, luminance.height,
+                          acquisition.region);
+    if (!given.ok()) return given.status();
+    estimate->cylinder = *given;
+    estimate->cylinder_source = acquisition.given_cylinder->source;
+    estimate->warnings.push_back(GivenCylinderWarning(*acquisition.given_cylinder));
+    return given;
+  }
+  CylinderDetectionOptions detection = options.detection;
+  detection.region = acquisition.region;
+  detection.phase_angle_rad = acquisition.phase_angle_rad;
+  detection.projection = acquisition.GetProjection();
+  absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
+  if (!cylinder.ok()) return cylinder.status();
+  estimate->cylinder = *cylinder;
+  estimate->cylinder_source = CylinderSource::kDetected;
+  if (!cylinder->left_observed || !cylinder->right_observed) {
+    estimate->warnings.push_back(absl::StrCat(
+        "the ", cylinder->left_observed ? "right" : "left",
+        " limb is lost in darkness and was inferred from the lit limb and the terminator "
+        "(expect it within about 2 px); light the body or darken the background to see it"));
+  }
+  return cylinder;
+}
+
 absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                                const Acquisition& acquisition,
                                                const EstimateOptions& options,
@@ -800,19 +834,9 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
   Image converted;
   if (image.channels != 1) converted = Luminance(image);
   const Image& luminance = image.channels != 1 ? converted : image;
-  CylinderDetectionOptions detection = options.detection;
-  detection.region = acquisition.region;
-  detection.phase_angle_rad = acquisition.phase_angle_rad;
-  detection.projection = acquisition.GetProjection();
-  absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
+  absl::StatusOr<CylinderGeometry> cylinder =
+      CylinderFor(luminance, acquisition, options, &estimate);
   if (!cylinder.ok()) return cylinder.status();
-  estimate.cylinder = *cylinder;
-  if (!cylinder->left_observed || !cylinder->right_observed) {
-    estimate.warnings.push_back(absl::StrCat(
-        "the ", cylinder->left_observed ? "right" : "left",
-        " limb is lost in darkness and was inferred from the lit limb and the terminator "
-        "(expect it within about 2 px); light the body or darken the background to see it"));
-  }
   if (absl::Status s = clock.Lap("detect"); !s.ok()) return s;
 
   const Projection projection = acquisition.GetProjection();
@@ -1121,7 +1145,8 @@ absl::Status Acquisition::Validate() const {
         "saturation_level must be finite and >= 0 (0 = the format's maximum), got %g",
         saturation_level));
   }
-  return CheckRegionFields(region);
+  if (absl::Status s = CheckRegionFields(region); !s.ok()) return s;
+  return given_cylinder ? given_cylinder->Validate() : absl::OkStatus();
 }
 
 absl::Status EstimateOptions::Validate() const {
@@ -1246,6 +1271,14 @@ absl::StatusOr<Estimate> DecodeAndEstimate(const std::string& bytes, std::string
   if (absl::Status s = CheckRegion(acquisition.region, header->width, header->height); !s.ok()) {
     return s;
   }
+  if (acquisition.given_cylinder) {
+    if (absl::Status s = GeometryFromGiven(*acquisition.given_cylinder, header->width,
+                                           header->height, acquisition.region)
+                             .status();
+        !s.ok()) {
+      return s;
+    }
+  }
   if (absl::Status s = CheckWorkingBytes(*header, options); !s.ok()) return s;
   absl::StatusOr<Image> image = DecodeImage(bytes, decode);
   if (release != nullptr) std::string().swap(*release);
@@ -1262,6 +1295,34 @@ absl::StatusOr<std::int64_t> EstimateWorkingBytes(const std::string& bytes) {
   absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
   if (!header.ok()) return header.status();
   return WorkingBytes(*header);
+}
+
+absl::StatusOr<DetectedCylinder> DetectCylinderInBytes(const std::string& bytes,
+                                                       const Acquisition& acquisition,
+                                                       const EstimateOptions& options) {
+  Acquisition detect = acquisition;
+  detect.given_cylinder.reset();
+  if (absl::Status s = detect.Validate(); !s.ok()) return s;
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  absl::StatusOr<ImageHeader> header = ReadImageHeader(bytes);
+  if (!header.ok()) return header.status();
+  if (absl::Status s = CheckRegion(detect.region, header->width, header->height); !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = CheckWorkingBytes(*header, options); !s.ok()) return s;
+  DecodeOptions decode;
+  decode.pixels_linear = detect.pixels_linear;
+  decode.saturation_level = detect.saturation_level;
+  decode.max_pixels = options.max_pixels;
+  absl::StatusOr<Image> image = DecodeImage(bytes, decode);
+  if (!image.ok()) return image.status();
+  Image converted;
+  if (image->channels != 1) converted = Luminance(*image);
+  Estimate estimate;
+  absl::StatusOr<CylinderGeometry> cylinder =
+      CylinderFor(image->channels != 1 ? converted : *image, detect, options, &estimate);
+  if (!cylinder.ok()) return cylinder.status();
+  return DetectedCylinder{*cylinder, image->width, image->height};
 }
 
 absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "estimator/io/decode.h"
 #include "estimator/io/image.h"
 #include "estimator/optics/radiance.h"
+#include "estimator/pipeline/given_cylinder.h"
 #include "estimator/peaks/peak_picking.h"
 #include "estimator/profile/profile_extraction.h"
 
@@ -30,6 +32,10 @@ struct Acquisition {
   PixelRegion region;                  // empty = whole image
   bool pixels_linear = false;          // skip sRGB decoding of 8-bit files
   double saturation_level = 0.0;       // file units; 0 = format maximum
+  // The cylinder, when known beforehand (given by the user, or shared by a
+  // series): used instead of detecting it (GeometryFromGiven). nullopt =
+  // detect it on the photograph.
+  std::optional<GivenCylinder> given_cylinder;
 
   // The physical ranges Validate holds a request to: those of a lab cylinder
   // with cloth wrapped round it, wide enough for any such set-up. From a
@@ -45,8 +51,9 @@ struct Acquisition {
 
   // OK, or INVALID_ARGUMENT naming the wire field and the constraint it
   // broke. The region is checked for its own consistency here (fields >= 0,
-  // width and height both given or both 0); against the image's size by
-  // CheckRegion, once the size is known.
+  // width and height both given or both 0), and a given cylinder's fields
+  // (GivenCylinder::Validate); against the image's size by CheckRegion and
+  // GeometryFromGiven, once the size is known.
   absl::Status Validate() const;
   Projection GetProjection() const {
     return Projection{cylinder_diameter_mm / 2.0, camera_distance_mm};
@@ -179,6 +186,7 @@ struct Estimate {
   Quantity amplitude_mm;
   Quantity specular_azimuth_rad;
   CylinderGeometry cylinder;
+  CylinderSource cylinder_source = CylinderSource::kDetected;  // where `cylinder` came from
   std::vector<CandidateScore> candidates;
   std::vector<std::string> warnings;
   std::vector<StageTime> timings;
@@ -212,8 +220,9 @@ absl::StatusOr<std::int64_t> EstimateWorkingBytes(const std::string& bytes);
 absl::Status CheckRegion(const PixelRegion& region, int width, int height);
 
 // Estimates from an encoded file. INVALID_ARGUMENT for undecodable or
-// inconsistent input (including "no cylinder found"), RESOURCE_EXHAUSTED when
-// the image exceeds options.max_pixels or options.max_working_bytes.
+// inconsistent input (including "no cylinder found", and a given cylinder
+// that does not fit the image: checked from the file's header, before
+// decoding), RESOURCE_EXHAUSTED when the image exceeds options.max_pixels or options.max_working_bytes.
 absl::StatusOr<Estimate> EstimateFromBytes(const std::string& bytes,
                                            const Acquisition& acquisition,
                                            const EstimateOptions& options);
@@ -227,6 +236,20 @@ absl::StatusOr<Estimate> EstimateFromBytes(std::string&& bytes, const Acquisitio
 absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
                                            const Acquisition& acquisition,
                                            const EstimateOptions& options);
+
+// The cylinder alone, as the estimate of these bytes would detect it (the
+// acquisition's region, phase angle and projection; the same limits), with
+// the image's size: what a series detects on each of its photographs
+// before it combines them (CombineCylinders). The acquisition's given
+// cylinder, if any, is ignored. The errors are EstimateFromBytes's.
+struct DetectedCylinder {
+  CylinderGeometry cylinder;
+  int width = 0;
+  int height = 0;
+};
+absl::StatusOr<DetectedCylinder> DetectCylinderInBytes(const std::string& bytes,
+                                                       const Acquisition& acquisition,
+                                                       const EstimateOptions& options);
 
 }  // namespace weavefit
 
