@@ -99,7 +99,55 @@ absl::StatusOr<Mode> ModeFromProto(int mode) {
   }
 }
 
+v1::CylinderSource SourceToProto(CylinderSource source) {
+  switch (source) {
+    case CylinderSource::kDetected:
+      return v1::DETECTED;
+    case CylinderSource::kGiven:
+      return v1::GIVEN;
+    case CylinderSource::kShared:
+      return v1::SHARED;
+  }
+  return v1::CYLINDER_SOURCE_UNSPECIFIED;
+}
+
 }  // namespace
+
+absl::StatusOr<GivenCylinder> GivenCylinderFromProto(const v1::GivenCylinder& proto) {
+  GivenCylinder given;
+  given.center_x_px = proto.center_x_px();
+  given.radius_px = proto.radius_px();
+  given.axis_angle_rad = proto.axis_angle_deg() * kDeg;
+  if (proto.radius_stderr_px() != 0.0) given.radius_stderr_px = proto.radius_stderr_px();
+  if (proto.center_stderr_px() != 0.0) given.center_stderr_px = proto.center_stderr_px();
+  given.lens_blur_px = proto.lens_blur_px();
+  switch (proto.source()) {
+    case v1::CYLINDER_SOURCE_UNSPECIFIED:
+    case v1::GIVEN:
+      given.source = CylinderSource::kGiven;
+      break;
+    case v1::SHARED:
+      given.source = CylinderSource::kShared;
+      break;
+    default:
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "given_cylinder.source %d must be GIVEN or SHARED (a given cylinder is not detected)",
+          static_cast<int>(proto.source())));
+  }
+  return given;
+}
+
+v1::GivenCylinder GivenCylinderToProto(const GivenCylinder& given) {
+  v1::GivenCylinder proto;
+  proto.set_center_x_px(given.center_x_px);
+  proto.set_radius_px(given.radius_px);
+  proto.set_axis_angle_deg(given.axis_angle_rad / kDeg);
+  proto.set_radius_stderr_px(given.radius_stderr_px);
+  proto.set_center_stderr_px(given.center_stderr_px);
+  proto.set_lens_blur_px(given.lens_blur_px);
+  proto.set_source(SourceToProto(given.source));
+  return proto;
+}
 
 absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto) {
   Acquisition acq;
@@ -111,6 +159,11 @@ absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto) {
                 proto.roi().height_px()};
   acq.pixels_linear = proto.pixels_linear();
   acq.saturation_level = proto.saturation_level();
+  if (proto.has_given_cylinder()) {
+    absl::StatusOr<GivenCylinder> given = GivenCylinderFromProto(proto.given_cylinder());
+    if (!given.ok()) return given.status();
+    acq.given_cylinder = *given;
+  }
   // Every range is checked in Acquisition::Validate alone (NaN and infinite
   // phase angles included), so the daemon and the in-process client agree.
   if (absl::Status s = acq.Validate(); !s.ok()) return s;
@@ -152,6 +205,7 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
   c->set_right_limb_observed(e.cylinder.right_observed);
   c->set_radius_stderr_px(e.cylinder.radius_stderr_px);
   c->set_radius_systematic_px(e.cylinder.radius_systematic_px);
+  c->set_source(SourceToProto(e.cylinder_source));
   for (const CandidateScore& candidate : e.candidates) {
     v1::Candidate* out = reply.add_candidates();
     out->set_model(ModelToProto(candidate.model));

@@ -17,6 +17,13 @@ namespace weavefit {
 // Degrees → radians, 0 diameter → 46 mm, and validation of the result.
 // INVALID_ARGUMENT naming the wire field that is wrong.
 absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto);
+// A given cylinder on the wire and in the library (degrees ↔ radians; a 0
+// error is the default, 0.5 px; CYLINDER_SOURCE_UNSPECIFIED is GIVEN). The
+// fields are checked by Acquisition::Validate (GivenCylinder::Validate),
+// against the image by the pipeline. DETECTED, or a source the enum does
+// not know, is INVALID_ARGUMENT naming given_cylinder.source.
+absl::StatusOr<GivenCylinder> GivenCylinderFromProto(const v1::GivenCylinder& proto);
+v1::GivenCylinder GivenCylinderToProto(const GivenCylinder& given);
 // The library's options for a request (mode), on top of `base`.
 // MODE_UNSPECIFIED is BALANCED; a value the enum does not know (a newer
 // client's, or a corrupt one) is INVALID_ARGUMENT naming options.mode.

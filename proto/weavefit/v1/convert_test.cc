@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <vector>
 #include <string>
 #include <utility>
 
@@ -95,6 +97,80 @@ TEST(AcquisitionFromProtoTest, RangesAreTheLibrarysAndNameTheWireField) {
   const absl::StatusOr<Acquisition> a = AcquisitionFromProto(proto);
   ASSERT_FALSE(a.ok());
   EXPECT_EQ(std::string(a.status().message()).rfind("phase_angle_deg", 0), 0u);
+}
+
+// A given cylinder crosses the wire and back unchanged (degrees ↔
+// radians); a 0 error is the default, 0.5 px; its fields are checked by the
+// library, naming the wire field; DETECTED is not a cylinder one can give.
+TEST(GivenCylinderProtoTest, RoundTripDefaultsAndChecks) {
+  GivenCylinder given;
+  given.center_x_px = 159.5;
+  given.radius_px = 128.25;
+  given.axis_angle_rad = 1.5 * M_PI / 180.0;
+  given.radius_stderr_px = 0.125;
+  given.center_stderr_px = 0.25;
+  given.lens_blur_px = 0.75;
+  given.source = CylinderSource::kShared;
+  v1::Acquisition proto;
+  proto.set_phase_angle_deg(10.0);
+  *proto.mutable_given_cylinder() = GivenCylinderToProto(given);
+  EXPECT_EQ(proto.given_cylinder().source(), v1::SHARED);
+  absl::StatusOr<Acquisition> a = AcquisitionFromProto(proto);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ASSERT_TRUE(a->given_cylinder.has_value());
+  EXPECT_EQ(a->given_cylinder->center_x_px, 159.5);
+  EXPECT_EQ(a->given_cylinder->radius_px, 128.25);
+  EXPECT_NEAR(a->given_cylinder->axis_angle_rad, given.axis_angle_rad, 1e-15);
+  EXPECT_EQ(a->given_cylinder->radius_stderr_px, 0.125);
+  EXPECT_EQ(a->given_cylinder->center_stderr_px, 0.25);
+  EXPECT_EQ(a->given_cylinder->lens_blur_px, 0.75);
+  EXPECT_EQ(a->given_cylinder->source, CylinderSource::kShared);
+  EXPECT_NEAR(GivenCylinderToProto(*a->given_cylinder).axis_angle_deg(), 1.5, 1e-12);
+
+  // Unset: detect. Set with defaults: GIVEN, 0.5 px.
+  proto.clear_given_cylinder();
+  a = AcquisitionFromProto(proto);
+  ASSERT_TRUE(a.ok());
+  EXPECT_FALSE(a->given_cylinder.has_value());
+  proto.mutable_given_cylinder()->set_center_x_px(160.0);
+  proto.mutable_given_cylinder()->set_radius_px(100.0);
+  a = AcquisitionFromProto(proto);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->given_cylinder->radius_stderr_px, GivenCylinder::kDefaultStderrPx);
+  EXPECT_EQ(a->given_cylinder->center_stderr_px, GivenCylinder::kDefaultStderrPx);
+  EXPECT_EQ(a->given_cylinder->source, CylinderSource::kGiven);
+
+  for (const auto& [field, set] :
+       std::vector<std::pair<std::string, std::function<void(v1::GivenCylinder*)>>>{
+           {"given_cylinder.radius_px", [](v1::GivenCylinder* g) { g->set_radius_px(-1.0); }},
+           {"given_cylinder.center_x_px",
+            [](v1::GivenCylinder* g) { g->set_center_x_px(std::nan("")); }},
+           {"given_cylinder.axis_angle_deg",
+            [](v1::GivenCylinder* g) { g->set_axis_angle_deg(90.0); }},
+           {"given_cylinder.lens_blur_px", [](v1::GivenCylinder* g) { g->set_lens_blur_px(-1); }},
+           {"given_cylinder.source", [](v1::GivenCylinder* g) { g->set_source(v1::DETECTED); }},
+           {"given_cylinder.source",
+            [](v1::GivenCylinder* g) { g->set_source(static_cast<v1::CylinderSource>(9)); }}}) {
+    v1::Acquisition bad = proto;
+    set(bad.mutable_given_cylinder());
+    const absl::StatusOr<Acquisition> refused = AcquisitionFromProto(bad);
+    ASSERT_FALSE(refused.ok()) << field;
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_EQ(std::string(refused.status().message()).rfind(field, 0), 0u)
+        << refused.status();
+  }
+}
+
+TEST(ReplyFromEstimateTest, TheCylindersSourceIsSaid) {
+  Estimate e;
+  EXPECT_EQ(ReplyFromEstimate(e, "x").cylinder().source(), v1::DETECTED);
+  e.cylinder_source = CylinderSource::kGiven;
+  EXPECT_EQ(ReplyFromEstimate(e, "x").cylinder().source(), v1::GIVEN);
+  e.cylinder_source = CylinderSource::kShared;
+  const v1::EstimateReply reply = ReplyFromEstimate(e, "x");
+  EXPECT_EQ(reply.cylinder().source(), v1::SHARED);
+  EXPECT_NE(ReplyToJson(reply).find("\"source\": \"SHARED\""), std::string::npos)
+      << ReplyToJson(reply);
 }
 
 // MODE_UNSPECIFIED is the server's default; a value the enum does not know
