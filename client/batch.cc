@@ -19,9 +19,13 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "client/files.h"
 #include "client/report.h"
+#include "estimator/pipeline/estimate.h"
+#include "estimator/pipeline/given_cylinder.h"
+#include "proto/weavefit/v1/convert.h"
 
 namespace weavefit {
 namespace {
@@ -430,6 +434,30 @@ absl::StatusOr<v1::RequestHeader> HeaderFor(const MetadataFlags& flags, const st
         "phase_angle_deg, or a sidecar ", SidecarPath(image), " with acquisition.phaseAngleDeg"));
   }
   acq->set_phase_angle_deg(*phase);
+  if (!flags.cylinder.empty()) {
+    if (flags.cylinder.size() != 3 && flags.cylinder.size() != 4) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--cylinder takes CX,R,TILT or CX,R,TILT,RADIUS_STDERR (px, px, deg, px), got ",
+          flags.cylinder.size(), " values"));
+    }
+    v1::GivenCylinder* given = acq->mutable_given_cylinder();
+    given->set_center_x_px(flags.cylinder[0]);
+    given->set_radius_px(flags.cylinder[1]);
+    given->set_axis_angle_deg(flags.cylinder[2]);
+    if (flags.cylinder.size() == 4) given->set_radius_stderr_px(flags.cylinder[3]);
+    given->set_source(v1::GIVEN);
+  }
+  if (!flags.roi.empty()) {
+    if (flags.roi.size() != 4) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--roi takes X,Y,W,H (px), got ", flags.roi.size(), " values"));
+    }
+    v1::RegionOfInterest* roi = acq->mutable_roi();
+    roi->set_x_px(flags.roi[0]);
+    roi->set_y_px(flags.roi[1]);
+    roi->set_width_px(flags.roi[2]);
+    roi->set_height_px(flags.roi[3]);
+  }
   if (flags.mode == "fast") {
     header.mutable_options()->set_mode(v1::FAST);
   } else if (flags.mode == "accurate") {
@@ -442,6 +470,125 @@ absl::StatusOr<v1::RequestHeader> HeaderFor(const MetadataFlags& flags, const st
   header.set_sample_name(row != nullptr && !row->sample_name.empty() ? row->sample_name
                                                                      : header.filename());
   return header;
+}
+
+namespace {
+
+// ShareCylinder over `count` photographs named `names`, `detect(i)` giving
+// photograph i's own detection (one at a time: a batch holds one decoded
+// photograph at once).
+absl::StatusOr<SeriesCylinder> ShareFrom(
+    const std::vector<std::string>& names,
+    const std::function<absl::StatusOr<DetectedCylinder>(std::size_t)>& detect) {
+  SeriesCylinder series;
+  series.notes.assign(names.size(), "");
+  std::vector<CylinderGeometry> detections;
+  std::vector<std::size_t> photograph;  // detection → photograph index
+  int width = 0;
+  int height = 0;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    absl::StatusOr<DetectedCylinder> d = detect(i);
+    if (!d.ok()) {
+      series.notes[i] = absl::StrCat(
+          "its own detection of the cylinder failed (", d.status().message(),
+          "), so it was read through the cylinder its series shares");
+      continue;
+    }
+    if (!detections.empty() && (d->width != width || d->height != height)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          names[i], " is ", d->width, "x", d->height, ", ", names[photograph[0]], " ", width,
+          "x", height, ": photographs of different sizes cannot share one cylinder"));
+    }
+    width = d->width;
+    height = d->height;
+    detections.push_back(d->cylinder);
+    photograph.push_back(i);
+  }
+  if (detections.empty()) {
+    series.summary = "no photograph of the series showed its cylinder: each is estimated alone";
+    return series;
+  }
+  absl::StatusOr<SharedCylinder> shared = CombineCylinders(detections);
+  if (!shared.ok()) return shared.status();
+  std::vector<std::string> used;
+  for (std::size_t k = 0; k < detections.size(); ++k) {
+    const std::size_t i = photograph[k];
+    const bool in = std::find(shared->used.begin(), shared->used.end(), static_cast<int>(k)) !=
+                    shared->used.end();
+    if (in) {
+      used.push_back(names[i]);
+    } else {
+      series.notes[i] = absl::StrFormat(
+          "its own detection (axis at column %.2f, radius %.2f +- %.2f px%s) was not among "
+          "those the series' cylinder was made of",
+          detections[k].center_x_px, detections[k].radius_px, detections[k].radius_stderr_px,
+          detections[k].left_observed && detections[k].right_observed ? "" : ", a limb inferred");
+    }
+  }
+  const GivenCylinder given = GivenFromGeometry(shared->cylinder, height, CylinderSource::kShared);
+  series.given = GivenCylinderToProto(given);
+  series.summary = absl::StrFormat(
+      "series cylinder from %d of %d photographs (%s): axis at column %.2f +- %.2f px, radius "
+      "%.2f +- %.2f px, tilt %.3f deg, lens blur %.2f px",
+      used.size(), names.size(), absl::StrJoin(used, ", "), given.center_x_px,
+      given.center_stderr_px, given.radius_px, given.radius_stderr_px,
+      given.axis_angle_rad * 180.0 / M_PI, given.lens_blur_px);
+  // Which detections were left out, and why, the notes say per photograph.
+  for (const std::string& w : shared->warnings) {
+    if (!absl::StartsWith(w, "the series' cylinder leaves out")) {
+      absl::StrAppend(&series.summary, "; ", w);
+    }
+  }
+  return series;
+}
+
+}  // namespace
+
+absl::StatusOr<SeriesCylinder> ShareCylinder(const std::vector<v1::RequestHeader>& headers,
+                                             const std::vector<std::string>& files) {
+  std::vector<std::string> names;
+  for (const v1::RequestHeader& h : headers) names.push_back(h.filename());
+  return ShareFrom(names, [&](std::size_t i) -> absl::StatusOr<DetectedCylinder> {
+    if (i >= files.size()) return absl::InvalidArgumentError("no file");
+    absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(headers[i].acquisition());
+    if (!acquisition.ok()) return acquisition.status();
+    return DetectCylinderInBytes(files[i], *acquisition, EstimateOptions());
+  });
+}
+
+absl::StatusOr<SeriesCylinder> ShareCylinderOfFiles(const MetadataFlags& flags,
+                                                    const std::vector<std::string>& images,
+                                                    const std::vector<ManifestRow>& rows) {
+  MetadataFlags detect_flags = flags;
+  detect_flags.cylinder.clear();
+  std::vector<std::string> names;  // as the headers name them
+  for (const std::string& image : images) {
+    const std::size_t slash = image.find_last_of('/');
+    names.push_back(slash == std::string::npos ? image : image.substr(slash + 1));
+  }
+  return ShareFrom(names, [&](std::size_t i) -> absl::StatusOr<DetectedCylinder> {
+    absl::StatusOr<v1::RequestHeader> header =
+        HeaderFor(detect_flags, images[i], i, FindRow(rows, images[i]));
+    if (!header.ok()) return header.status();
+    absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(header->acquisition());
+    if (!acquisition.ok()) return acquisition.status();
+    absl::StatusOr<std::string> bytes = ReadFile(images[i]);
+    if (!bytes.ok()) return bytes.status();
+    return DetectCylinderInBytes(*bytes, *acquisition, EstimateOptions());
+  });
+}
+
+absl::StatusOr<bool> SharesCylinder(bool same_cylinder, bool joint, bool own_cylinders,
+                                    const MetadataFlags& flags, std::size_t images) {
+  if (same_cylinder && own_cylinders) {
+    return absl::InvalidArgumentError(
+        "--same-cylinder shares one cylinder, --own-cylinders detects each: give one");
+  }
+  return (same_cylinder || joint) && !own_cylinders && flags.cylinder.empty() && images > 1;
+}
+
+void AddSeriesNote(const std::string& note, v1::EstimateReply* reply) {
+  if (!note.empty()) reply->add_warnings(note);
 }
 
 ResultsFormat ResultsFormatFor(const std::string& path) {

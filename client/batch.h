@@ -84,6 +84,13 @@ struct MetadataFlags {
   bool linear = false;         // pixels already linear
   double saturation_level = 0.0;  // file units; 0 = the format's maximum
   std::string mode = "balanced";  // fast, balanced or accurate
+  // --cylinder CX,R,TILT[,RADIUS_STDERR]: the cylinder given instead of
+  // detected (v1::GivenCylinder: axis column at the image's middle row, px;
+  // radius, px; tilt, deg; the radius's standard error, px). Empty = detect.
+  std::vector<double> cylinder;
+  // --roi X,Y,W,H: the region of interest (v1::RegionOfInterest), px.
+  // Empty = the whole image.
+  std::vector<int> roi;
 };
 
 // The request header for image number `index` of the batch. Each field comes
@@ -92,9 +99,60 @@ struct MetadataFlags {
 // then the flags'); the sidecar IMAGE-stem.json (acquisition.phaseAngleDeg,
 // .cylinderDiameterMm, .cameraDistanceMm); the flags' --diameter-mm and
 // --distance-mm. The sample name is the row's, else the file name.
-// INVALID_ARGUMENT, naming the image, when no phase angle is found.
+// --cylinder sets acquisition.given_cylinder (its values are checked by the
+// estimate). INVALID_ARGUMENT, naming the image, when no phase angle is
+// found; naming --cylinder when it has other than 3 or 4 values, --roi when
+// it has other than 4.
 absl::StatusOr<v1::RequestHeader> HeaderFor(const MetadataFlags& flags, const std::string& image,
                                             std::size_t index, const ManifestRow* row);
+
+// ------------------------------------------------------ series' cylinder
+
+// The cylinder a series of photographs of one set-up shares (issue 31: the
+// lamp moves, the camera and sample stay). The client detects it on each
+// photograph in this process (DetectCylinderInBytes, with the request
+// header's acquisition), before any estimate, and combines the detections
+// (CombineCylinders); every request then carries it as its given cylinder,
+// source SHARED, so the daemon and the in-process estimate read each
+// photograph through the same cylinder. Detecting here rather than asking
+// the daemon keeps each detection's limb errors and lens blur, which a
+// reply does not carry, at the cost of decoding each photograph twice.
+struct SeriesCylinder {
+  // nullopt when no photograph showed the cylinder (each is then estimated
+  // with its own detection, and fails as it would alone).
+  std::optional<v1::GivenCylinder> given;
+  // Per photograph: "" when its own detection entered the shared cylinder,
+  // else a sentence why not (its detection failed, its limb was inferred,
+  // it disagreed), for that photograph's warnings.
+  std::vector<std::string> notes;
+  // One paragraph on the series: the cylinder, its errors, which
+  // photographs made it.
+  std::string summary;
+};
+
+// The series' cylinder for `headers[i]` and `files[i]` (the encoded
+// photographs, aligned). A photograph whose detection fails is left out
+// (an undecodable one too: its estimate reports that). INVALID_ARGUMENT
+// when photographs that showed the cylinder differ in size: they cannot be
+// one set-up.
+absl::StatusOr<SeriesCylinder> ShareCylinder(const std::vector<v1::RequestHeader>& headers,
+                                             const std::vector<std::string>& files);
+
+// The same for image files, each with its HeaderFor header (`rows` as
+// there). An image that cannot be read is left out like a failed detection.
+absl::StatusOr<SeriesCylinder> ShareCylinderOfFiles(const MetadataFlags& flags,
+                                                    const std::vector<std::string>& images,
+                                                    const std::vector<ManifestRow>& rows);
+
+// Whether a run shares one cylinder over its images: --same-cylinder, or
+// --joint, unless --own-cylinders, --cylinder (the cylinder is given) or a
+// single image. INVALID_ARGUMENT for --same-cylinder with --own-cylinders.
+absl::StatusOr<bool> SharesCylinder(bool same_cylinder, bool joint, bool own_cylinders,
+                                    const MetadataFlags& flags, std::size_t images);
+
+// The reply of a photograph estimated with the series' cylinder, with its
+// note (SeriesCylinder::notes) added to its warnings when there is one.
+void AddSeriesNote(const std::string& note, v1::EstimateReply* reply);
 
 // --------------------------------------------------------- results file
 

@@ -242,6 +242,39 @@ TEST(HeaderTest, ManifestThenFlagsThenSidecar) {
   EXPECT_NE(nothing.status().message().find("manifest"), absl::string_view::npos);
 }
 
+// --cylinder and --roi go into the acquisition as they are (the estimate
+// checks their values); a wrong count of values is refused here.
+TEST(HeaderTest, CylinderAndRegionFlags) {
+  MetadataFlags flags;
+  flags.phase_angles_deg = {10.0};
+  flags.cylinder = {159.5, 128.0, -1.5};
+  flags.roi = {0, 20, 320, 200};
+  absl::StatusOr<v1::RequestHeader> h = HeaderFor(flags, "a.png", 0, nullptr);
+  ASSERT_TRUE(h.ok()) << h.status();
+  ASSERT_TRUE(h->acquisition().has_given_cylinder());
+  const v1::GivenCylinder& g = h->acquisition().given_cylinder();
+  EXPECT_EQ(g.center_x_px(), 159.5);
+  EXPECT_EQ(g.radius_px(), 128.0);
+  EXPECT_EQ(g.axis_angle_deg(), -1.5);
+  EXPECT_EQ(g.radius_stderr_px(), 0.0);  // the default, 0.5 px
+  EXPECT_EQ(g.source(), v1::GIVEN);
+  EXPECT_EQ(h->acquisition().roi().y_px(), 20);
+  EXPECT_EQ(h->acquisition().roi().height_px(), 200);
+  flags.cylinder.push_back(0.25);
+  EXPECT_EQ(HeaderFor(flags, "a.png", 0, nullptr)->acquisition().given_cylinder().radius_stderr_px(),
+            0.25);
+  flags.cylinder = {159.5, 128.0};
+  absl::StatusOr<v1::RequestHeader> two = HeaderFor(flags, "a.png", 0, nullptr);
+  EXPECT_EQ(two.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(two.status().message().find("--cylinder takes"), absl::string_view::npos);
+  flags.cylinder.clear();
+  flags.roi = {1, 2, 3};
+  EXPECT_EQ(HeaderFor(flags, "a.png", 0, nullptr).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  flags.roi.clear();
+  EXPECT_FALSE(HeaderFor(flags, "a.png", 0, nullptr)->acquisition().has_given_cylinder());
+}
+
 v1::EstimateReply Reply(const std::string& sample, double slope) {
   v1::EstimateReply reply;
   reply.set_sample_name(sample);

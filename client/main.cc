@@ -43,6 +43,8 @@ struct EstimateFlags {
   std::vector<std::string> images;
   MetadataFlags metadata;
   bool joint = false;  // also the joint estimate over the images
+  bool same_cylinder = false;  // one cylinder for all images (SharesCylinder)
+  bool own_cylinders = false;  // each image its own, even with --joint
   std::string format = "table";  // table, json or csv
   bool json = false;             // --json: --format json
   std::string profile_csv;       // write the azimuthal profile here
@@ -92,11 +94,22 @@ int RunEstimates(EstimateFlags flags) {
   if (usage.ok() && flags.joint && flags.format == "csv") {
     usage = absl::InvalidArgumentError("--joint prints a table or JSON, not CSV");
   }
+  absl::StatusOr<bool> share = SharesCylinder(flags.same_cylinder, flags.joint,
+                                              flags.own_cylinders, flags.metadata,
+                                              flags.images.size());
+  if (usage.ok()) usage = share.status();
+  // The series' cylinder, detected on every image before any is estimated.
+  absl::StatusOr<SeriesCylinder> series = SeriesCylinder();
+  if (usage.ok() && *share) {
+    series = ShareCylinderOfFiles(flags.metadata, flags.images, {});
+    usage = series.status();
+  }
   if (!usage.ok()) {
     std::cerr << "weavefit: " << usage.message() << "\n";
     if (json) std::cout << ErrorToJson(usage) << "\n";
     return static_cast<int>(usage.code());
   }
+  if (!series->summary.empty()) std::cerr << "weavefit: " << series->summary << "\n";
   if (flags.format == "csv") std::cout << CsvHeader();
   std::vector<ReportRow> rows;
   std::vector<PhotographEstimate> photographs;
@@ -113,8 +126,12 @@ int RunEstimates(EstimateFlags flags) {
       absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags.metadata, image, index, nullptr);
       if (!header.ok()) return header.status();
       if (!flags.plot_dir.empty()) header->mutable_options()->set_include_curves(true);
+      if (series->given) {
+        *header->mutable_acquisition()->mutable_given_cylinder() = *series->given;
+      }
       absl::StatusOr<v1::EstimateReply> estimated =
           EstimateInProcess(*header, *bytes, flags.profile_csv);
+      if (estimated.ok() && series->given) AddSeriesNote(series->notes[index], &*estimated);
       if (estimated.ok() && !flags.plot_dir.empty()) {
         if (absl::Status s = PlotInto(flags.plot_dir, plot_names[index], image, *bytes, &*estimated);
             !s.ok()) {
@@ -150,10 +167,10 @@ int RunEstimates(EstimateFlags flags) {
       if (first_error.ok()) first_error = joint.status();
       std::cerr << "weavefit: joint estimate: " << joint.status().message() << "\n";
       if (json) std::cout << ErrorToJson(joint.status()) << "\n";
-    } else if (json) {
-      std::cout << JointJsonLine(JointToProto(*joint, names));
     } else {
-      std::cout << FormatJoint(JointToProto(*joint, names));
+      v1::JointEstimate out = JointToProto(*joint, names);
+      if (series->given) out.add_warnings(series->summary);
+      std::cout << (json ? JointJsonLine(out) : FormatJoint(out));
     }
   }
   return first_error.ok() ? 0 : static_cast<int>(first_error.code());
@@ -176,8 +193,32 @@ void AddMetadataFlags(CLI::App* app, MetadataFlags* flags) {
   app->add_option("--saturation-level", flags->saturation_level,
                   "saturation level in file units; 0 = the format's maximum")
       ->capture_default_str();
+  app->add_option("--cylinder", flags->cylinder,
+                  "CX,R,TILT[,RADIUS_STDERR]: use this cylinder instead of detecting it, for "
+                  "photographs that cannot show it: the axis column at the image's middle row "
+                  "(px), the radius (px), the axis tilt (deg, > 0 = top toward the right) and "
+                  "the radius's standard error (px, default 0.5); the rows read are the whole "
+                  "image's or the region's")
+      ->delimiter(',')
+      ->allow_extra_args(false);
+  app->add_option("--roi", flags->roi,
+                  "X,Y,W,H: read only this region of each image, px (e.g. to leave out the "
+                  "cylinder's ends; with --cylinder, its rows are the rows read)")
+      ->delimiter(',')
+      ->allow_extra_args(false);
   app->add_option("--mode", flags->mode, "fast, balanced or accurate")
       ->check(CLI::IsMember({"fast", "balanced", "accurate"}))->capture_default_str();
+}
+
+// --same-cylinder and --own-cylinders (SharesCylinder).
+void AddCylinderSharingFlags(CLI::App* app, bool* same_cylinder, bool* own_cylinders) {
+  app->add_flag("--same-cylinder", *same_cylinder,
+                "the images are one set-up (the lamp moves, camera and sample stay): detect "
+                "the cylinder on each, combine the detections that show it best (both limbs "
+                "seen, inverse-variance weighted) and read every image through it, including "
+                "those whose own detection fails; on by default with --joint");
+  app->add_flag("--own-cylinders", *own_cylinders,
+                "each image is read through its own detected cylinder, also with --joint");
 }
 
 void AddFormatFlags(CLI::App* app, std::string* format, bool* json) {
@@ -194,7 +235,8 @@ void AddEstimateFlags(CLI::App* app, EstimateFlags* flags) {
   AddMetadataFlags(app, &flags->metadata);
   app->add_flag("--joint", flags->joint,
                 "also combine the images, photographs of one sample, into a joint estimate "
-                "of the thread parameters");
+                "of the thread parameters (with one cylinder for all: --same-cylinder)");
+  AddCylinderSharingFlags(app, &flags->same_cylinder, &flags->own_cylinders);
   AddFormatFlags(app, &flags->format, &flags->json);
   app->add_option("--profile-csv", flags->profile_csv,
                   "write the azimuthal profile (azimuth_deg,mean,stderr,count) of the last image");
@@ -217,7 +259,8 @@ void AddSubmitFlags(CLI::App* app, SubmitFlags* flags) {
       ->check(CLI::ExistingFile);
   app->add_flag("--joint", flags->joint,
                 "send the images, photographs of one sample, in one call for the daemon's joint "
-                "estimate of the thread parameters");
+                "estimate of the thread parameters (with one cylinder for all: --same-cylinder)");
+  AddCylinderSharingFlags(app, &flags->same_cylinder, &flags->own_cylinders);
   AddFormatFlags(app, &flags->format, &flags->json);
   app->add_option("--out", flags->out,
                   "also append each result to this file (.csv: CSV, else JSON lines "

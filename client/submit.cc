@@ -205,6 +205,21 @@ int RunJoint(const SubmitFlags& flags, const std::vector<std::string>& images,
     headers.push_back(*std::move(header));
     files.push_back(*std::move(bytes));
   }
+  // The series' cylinder, detected here on every photograph (ShareCylinder).
+  absl::StatusOr<bool> share = SharesCylinder(flags.same_cylinder, flags.joint,
+                                              flags.own_cylinders, flags.metadata, images.size());
+  if (status.ok()) status = share.status();
+  absl::StatusOr<SeriesCylinder> series = SeriesCylinder();
+  if (status.ok() && *share) {
+    series = ShareCylinder(headers, files);
+    status = series.status();
+  }
+  if (status.ok() && series->given) {
+    if (!flags.quiet) std::cerr << "weavefit: " << series->summary << "\n";
+    for (v1::RequestHeader& h : headers) {
+      *h.mutable_acquisition()->mutable_given_cylinder() = *series->given;
+    }
+  }
   absl::StatusOr<v1::JointEstimateReply> reply =
       status.ok() ? SubmitJoint(flags.connection, headers, files)
                   : absl::StatusOr<v1::JointEstimateReply>(status);
@@ -212,6 +227,14 @@ int RunJoint(const SubmitFlags& flags, const std::vector<std::string>& images,
     std::cerr << "weavefit: joint estimate: " << StatusLine(reply.status()) << "\n";
     if (json) std::cout << ErrorToJson(reply.status()) << "\n";
     return static_cast<int>(reply.status().code());
+  }
+  if (series->given) {
+    reply->mutable_joint()->add_warnings(series->summary);
+    for (int i = 0; i < reply->photographs_size(); ++i) {
+      if (static_cast<std::size_t>(i) < series->notes.size()) {
+        AddSeriesNote(series->notes[i], reply->mutable_photographs(i));
+      }
+    }
   }
   std::vector<ReportRow> table;
   for (int i = 0; i < reply->photographs_size(); ++i) {
@@ -317,6 +340,18 @@ int RunSubmit(SubmitFlags flags) {
   }
   if (todo.empty()) return 0;
 
+  // --same-cylinder: the series' cylinder, detected here on every image
+  // (skipped or not: they are one set-up) before any is sent.
+  absl::StatusOr<bool> share = SharesCylinder(flags.same_cylinder, false, flags.own_cylinders,
+                                              flags.metadata, images.size());
+  if (!share.ok()) return Fail(share.status(), json);
+  absl::StatusOr<SeriesCylinder> series = SeriesCylinder();
+  if (*share) series = ShareCylinderOfFiles(flags.metadata, images, rows);
+  if (!series.ok()) return Fail(series.status(), json);
+  if (!series->summary.empty() && !flags.quiet) {
+    std::cerr << "weavefit: " << series->summary << "\n";
+  }
+
   absl::StatusOr<Client> client = Client::Connect(flags.connection);
   if (!client.ok()) return Fail(client.status(), json);
 
@@ -340,7 +375,11 @@ int RunSubmit(SubmitFlags flags) {
         HeaderFor(flags.metadata, image, todo[k], FindRow(rows, image));
     if (!header.ok()) return header.status();
     if (!flags.plot_dir.empty()) header->mutable_options()->set_include_curves(true);
+    if (series->given) {
+      *header->mutable_acquisition()->mutable_given_cylinder() = *series->given;
+    }
     absl::StatusOr<v1::EstimateReply> reply = client->Estimate(*std::move(header), *bytes);
+    if (reply.ok() && series->given) AddSeriesNote(series->notes[todo[k]], &*reply);
     if (reply.ok() && !flags.plot_dir.empty()) {
       if (absl::Status s = PlotInto(flags.plot_dir, plot_names[todo[k]], image, *bytes, &*reply);
           !s.ok()) {

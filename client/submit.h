@@ -15,6 +15,10 @@ struct SubmitFlags {
   MetadataFlags metadata;
   std::string manifest;  // CSV manifest (ParseManifest); its images join the inputs
   bool joint = false;    // all photographs in one EstimateJoint call
+  // One cylinder for all photographs (SharesCylinder), detected here
+  // (ShareCylinder) and sent as each request's given cylinder.
+  bool same_cylinder = false;
+  bool own_cylinders = false;  // each its own, even with --joint
   Connection connection;
   std::string token_file;  // "" = $WEAVEFIT_TOKEN, if set
   int jobs = 4;            // calls in flight at once
