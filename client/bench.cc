@@ -319,6 +319,12 @@ std::vector<SweepAxis> SweepAxes() {
       // in the lab (issue 4); the saturated pixels are masked.
       {"exposure", "exposure, times the default (glints clip)", {1, 10, 30, 100, 300},
        [](RenderScene& s, double f) { s.exposure *= f; }, true},
+      // Stray light (issue 31): a broad source lights the whole body, so the
+      // side away from the lamp shows the weave's texture, from darker than
+      // the background (0.01) through as bright to far brighter, and the
+      // lobe sits on a textured level (the default ambient 0.03 is kept).
+      {"stray_light", "stray light, full-scale level of a lit crest", {0, 0.01, 0.02, 0.04, 0.08, 0.16},
+       [](RenderScene& s, double level) { s.stray_light = level; }, false},
   };
 }
 

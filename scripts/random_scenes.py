@@ -2,7 +2,7 @@
 """Photographs weavefit has never seen: random scenes, rendered, estimated, checked.
 
 Usage: scripts/random_scenes.py FIRST LAST [--out DIR] [--noisy] [--lens-blur PX]
-                                [-j JOBS] [--mode MODE] [--outer-caustic LO HI]
+                                [-j JOBS] [--mode MODE] [--outer-caustic LO HI] [--lab]
 
 Seeds FIRST..LAST-1 each pick a scene at random (the seed fixes it, so a
 failure can be rendered again): sinusoid, sawtooth or smooth; max slope
@@ -13,6 +13,15 @@ and read noise 0.001-0.01); source blur 0.3-1.5 deg; exposure 0.002-0.012;
 PNG 16-bit, PNG 8-bit sRGB, TIFF, EXR or JPEG; and, each with probability
 0.2-0.3, a Lambertian term, axis tilt, lens blur 0.3-1.2 px (--lens-blur:
 always that sigma), perspective at 500-2000 mm and vignetting.
+
+--lab adds what lab photographs do (issue 31), drawn from a second random
+stream so that a seed's scene without --lab is the same as before: stray light
+on the whole body (0.005-0.08 of full scale, relief texture 0.3-0.8), an
+ambient level 0-0.03 and a background 0-0.05; and, each with probability
+0.4-0.7, axial threads glinting as lines (width 0.05-0.3 of lambda/2, half of
+them floating over every other thread), a background gradient (up to 0.03
+across the frame, any direction), a black-level pedestal (0.002-0.03) and the
+cylinder's ends with a mount inside the frame.
 
 Each is rendered (`weavefit render`), estimated (`weavefit estimate --json`,
 with the phase angle and camera distance the lab would state) and compared
@@ -43,7 +52,31 @@ WEAVEFIT = os.path.join(ROOT, "build", "client", "weavefit")
 EXTENSIONS = {"png": "png", "png8": "png", "tiff": "tiff", "exr": "exr", "jpeg": "jpg"}
 
 
-def scene_flags(seed, noisy, lens_blur):
+def lab_flags(seed, height):
+    """The --lab conditions of seed's scene: their own random stream."""
+    r = random.Random("lab%d" % seed)
+    flags = ["--stray-light", "%.4f" % r.uniform(0.005, 0.08),
+             "--stray-texture", "%.2f" % r.uniform(0.3, 0.8),
+             "--ambient", "%.4f" % r.uniform(0.0, 0.03),
+             "--background", "%.4f" % r.uniform(0.0, 0.05)]
+    if r.random() < 0.7:
+        flags += ["--axial-glint-width", "%.3f" % r.uniform(0.05, 0.3)]
+        if r.random() < 0.5:
+            flags += ["--axial-float-width", "%.2f" % r.uniform(0.2, 0.5)]
+    if r.random() < 0.6:
+        flags += ["--background-gradient", "%.4f" % r.uniform(-0.03, 0.03),
+                  "--background-gradient-deg", "%.0f" % r.uniform(0, 360)]
+    if r.random() < 0.6:
+        flags += ["--black-level", "%.4f" % r.uniform(0.002, 0.03)]
+    if r.random() < 0.4:
+        flags += ["--top-row", "%d" % round(height * r.uniform(0.05, 0.2)),
+                  "--bottom-row", "%d" % round(height * r.uniform(0.8, 0.95)),
+                  "--mount-level", "%.3f" % r.uniform(0.02, 0.1),
+                  "--mount-half-width", "%.2f" % r.uniform(0.6, 1.5)]
+    return flags
+
+
+def scene_flags(seed, noisy, lens_blur, lab=False):
     """The render flags of seed's scene, and its phase angle and distance."""
     r = random.Random(seed)
     model = r.choice(["smooth", "sinusoid", "sinusoid", "sawtooth", "sawtooth"])
@@ -80,6 +113,8 @@ def scene_flags(seed, noisy, lens_blur):
         flags += ["--distance-mm", "%.0f" % distance]
     if r.random() < 0.2:
         flags += ["--vignetting", "%.2f" % r.uniform(0.05, 0.3)]
+    if lab:
+        flags += lab_flags(seed, h)
     return flags, EXTENSIONS[fmt], alpha, distance
 
 
@@ -94,9 +129,9 @@ def outer_caustic_deg(seed, noisy, lens_blur):
     return abs(alpha) / 2 + math.degrees(math.atan(m))
 
 
-def check(seed, out_dir, noisy, lens_blur, mode):
+def check(seed, out_dir, noisy, lens_blur, mode, lab=False):
     """(seed, verdict line, render flags)."""
-    flags, ext, alpha, distance = scene_flags(seed, noisy, lens_blur)
+    flags, ext, alpha, distance = scene_flags(seed, noisy, lens_blur, lab)
     image = os.path.join(out_dir, "s%d.%s" % (seed, ext))
     p = subprocess.run([WEAVEFIT, "render", "--out", image] + flags,
                        capture_output=True, text=True)
@@ -147,6 +182,9 @@ def main():
     parser.add_argument("--outer-caustic", type=float, nargs=2, metavar=("LO", "HI"),
                         help="only the split scenes whose outer caustic, |alpha|/2 + arctan m, "
                              "lies at LO-HI deg (the limb at 90)")
+    parser.add_argument("--lab", action="store_true",
+                        help="add lab-photograph conditions: stray light, axial glint lines, "
+                             "background gradient, pedestal, ends and mount")
     args = parser.parse_args()
     if not os.access(WEAVEFIT, os.X_OK):
         sys.exit("build the client first: %s is missing" % WEAVEFIT)
@@ -158,7 +196,8 @@ def main():
                  <= args.outer_caustic[1]]
     counts = {"ok": 0, "BAD": 0, "ERROR": 0, "RENDER-FAILED": 0}
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        runs = pool.map(lambda s: check(s, args.out, args.noisy, args.lens_blur, args.mode),
+        runs = pool.map(lambda s: check(s, args.out, args.noisy, args.lens_blur, args.mode,
+                                        args.lab),
                         seeds)
         for seed, line, flags in runs:
             print(seed, line, flush=True)

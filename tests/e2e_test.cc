@@ -395,10 +395,10 @@ TEST_F(EndToEnd, SweepWritesCsvAndCharts) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const std::string summary = ReadFileOrDie(out + "/sweep_summary.csv");
   const std::vector<std::string> lines = absl::StrSplit(summary, '\n', absl::SkipEmpty());
-  // Seven axes of five to seven points, one mode.
-  EXPECT_EQ(lines.size(), 1u + 42u) << summary;
-  for (const char* axis :
-       {"max_slope,", "noise,", "blur,", "px_per_period,", "phase_angle,", "tilt,", "exposure,"}) {
+  // Eight axes of five to seven points, one mode.
+  EXPECT_EQ(lines.size(), 1u + 48u) << summary;
+  for (const char* axis : {"max_slope,", "noise,", "blur,", "px_per_period,", "phase_angle,", "tilt,",
+                           "exposure,", "stray_light,"}) {
     EXPECT_NE(summary.find(std::string("\n") + axis), std::string::npos) << axis;
   }
   // The coarse weave at 16 px per period and 30 deg is read right by peak picking.

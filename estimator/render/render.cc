@@ -33,6 +33,47 @@ double ThreadSlope(ProfileModel model, double max_slope, double wavelength_mm,
   return 0.0;
 }
 
+// Height of the thread profile at arc position s, in units of h0: from −1
+// at a trough to +1 at a crest (the integral of ThreadSlope).
+double ThreadHeight(ProfileModel model, double wavelength_mm, double s_mm) {
+  const double cycles = s_mm / wavelength_mm;
+  const double f = cycles - std::floor(cycles);
+  switch (model) {
+    case ProfileModel::kSinusoid:
+      return std::sin(2.0 * M_PI * cycles);
+    case ProfileModel::kSawtooth:
+      return f < 0.5 ? 4.0 * f - 1.0 : 3.0 - 4.0 * f;
+    case ProfileModel::kSmooth:
+      break;
+  }
+  return 0.0;
+}
+
+// Where in its period (cycles) a circumferential thread has its trough: in a
+// plain weave an axial thread passes over it there, and under it at the
+// crest half a period on; the axial threads lie λ/2 apart.
+double TroughCycles(ProfileModel model) {
+  return model == ProfileModel::kSinusoid ? 0.75 : 0.0;
+}
+
+// Axial threads resolved one by one. q is the arc position in axial pitches
+// (λ/2), with a thread's centre at every integer; each thread's glint is a
+// line of width f (pitches) centred `shift` from the thread's centre and
+// carrying the mean lobe of one pitch. Returns a sample's mean over
+// [q − dq/2, q + dq/2] in units of that mean lobe (integrated exactly, since
+// the lines are narrower than a pixel).
+double AxialLines(double q, double dq, double shift, double f) {
+  const double lo = q - 0.5 * dq;
+  const double hi = q + 0.5 * dq;
+  double overlap = 0.0;
+  for (double k = std::floor(lo - shift - f); k <= std::ceil(hi - shift + f); k += 1.0) {
+    const double a = std::max(lo, k + shift - 0.5 * f);
+    const double b = std::min(hi, k + shift + 0.5 * f);
+    if (b > a) overlap += b - a;
+  }
+  return overlap / (f * dq);
+}
+
 // Mean of exp(−(κ·(t − ½))²/2) over t in [t0, t1]: the share of a rounded
 // thread's cross-section whose out-of-plane tilt still sends the source into
 // the camera (the tilt grows linearly from the crest at t = ½).
@@ -50,6 +91,7 @@ struct Terms {
   double specular = 0.0;  // circumferential threads, per unit E0
   double axial = 0.0;     // axial threads, per unit E0
   double diffuse = 0.0;   // max(0, cos(φ − α))
+  double stray = 0.0;     // share of the stray light sent to the camera
 };
 
 // Everything per scene that the per-sample geometry needs.
@@ -81,6 +123,12 @@ class Sampler {
     const double gamma_max = scene.crest_tilt_deg * kDeg;
     crest_kappa0_ = 4.0 * gamma_max / (scene.source_blur_deg * kDeg);
     crest_norm_ = CrestFactor(0.0, 1.0, crest_kappa0_);
+    stray_ = scene.stray_light > 0.0;
+    resolved_lines_ = scene.axial_glint_width > 0.0;
+    axial_coordinates_ = stray_ || resolved_lines_;
+    // Axial threads half their pitch thick, or as wide as they float.
+    axial_radius_ = scene.axial_float_width > 0.0 ? 0.5 * scene.axial_float_width : 0.25;
+    trough_cycles_ = TroughCycles(scene.model);
 
     // Weave phase per circumferential thread: phase_step periods between
     // neighbours (½ for a plain weave) plus, unless regular, a slow random
@@ -119,15 +167,15 @@ class Sampler {
     return std::fabs(phi - mirror) <= std::atan(m_) + 7.0 * sigma_beta_ + pixel_rad;
   }
 
-  // The sample at image point (u, v) covering dv pixels vertically.
-  Terms Sample(double u, double v, double dv) const {
+  // The sample at image point (u, v) covering du × dv pixels.
+  Terms Sample(double u, double v, double du, double dv) const {
     Terms t;
     const double axis_u = cx_ + (cy_ - v) * tan_tilt_;
     const double offset = (u - axis_u) * cos_tilt_ / radius_px_;
     const double along_px = (cy_ - v) / cos_tilt_ + (u - axis_u) * sin_tilt_;
     const int row_on_axis = static_cast<int>(std::lround(cy_ - along_px));
     if (row_on_axis < top_ || row_on_axis > bottom_) {
-      t.mount = scene_.mount_level >= 0.0 && std::fabs(offset) < 0.6;
+      t.mount = scene_.mount_level >= 0.0 && std::fabs(offset) < scene_.mount_half_width;
       return t;
     }
     if (std::fabs(offset) >= 1.0) return t;
@@ -143,22 +191,56 @@ class Sampler {
     const int thread = static_cast<int>(std::floor(pitches));
     const double across = pitches - thread;
     const double g = scene_.gap_fraction;
+    // Axial thread: a small round specular cylinder whose normal sweeps
+    // ψ over (−90°, 90°) around φ with density cos ψ / 2 per mean arc.
+    // Its glint (at ψ* = mirror − φ) is far narrower than a pixel, so it
+    // is integrated analytically: E0/2 · cos h · p(ψ*) / (cos ψ* · cos φ).
+    // Only where the surface is lit: a thread lying in the cylinder's own
+    // shadow (light below its local horizon, φ < α − 90°) gets none.
+    const double axial_lobe =
+        t.diffuse > 0.0 && std::fabs(mirror - phi) < M_PI / 2.0 ? 0.25 * cos_h / cos_phi : 0.0;
+    // The axial threads one by one: arc in axial pitches, a sample's width
+    // in them, and the glint's place on a round thread (radius in pitches).
+    const double dq = du * mm_per_px_ * cos_tilt_ / cos_phi / pitch_mm_;
+    const double shift = axial_radius_ * std::sin(mirror - phi);
+    auto axial = [&](double q) {
+      return resolved_lines_ ? axial_lobe * AxialLines(q, dq, shift, scene_.axial_glint_width)
+                             : axial_lobe;
+    };
     if (across < 0.5 * g || across > 1.0 - 0.5 * g) {
-      // Axial thread: a small round specular cylinder whose normal sweeps
-      // ψ over (−90°, 90°) around φ with density cos ψ / 2 per mean arc.
-      // Its glint (at ψ* = mirror − φ) is far narrower than a pixel, so it
-      // is integrated analytically: E0/2 · cos h · p(ψ*) / (cos ψ* · cos φ).
-      // Only where the surface is lit: a thread lying in the cylinder's own
-      // shadow (light below its local horizon, φ < α − 90°) gets none.
-      if (t.diffuse > 0.0 && std::fabs(mirror - phi) < M_PI / 2.0) {
-        t.axial = 0.25 * cos_h / cos_phi;
+      if (!axial_coordinates_) {
+        t.axial = axial_lobe;
+        return t;
       }
+      // The gap between two circumferential threads: the axial threads lie
+      // at the troughs and crests of the thread beyond this boundary.
+      const double q = AxialPitches(across < 0.5 ? thread : thread + 1, phi);
+      t.axial = axial(q);
+      const double w = q - std::round(q);  // from the nearest axial thread's centre
+      if (stray_) t.stray = Stray(phi - view, 0.5 * Round(w / axial_radius_));
       return t;
     }
     const int index = std::clamp(thread - first_thread_, 0, num_threads_ - 1);
     const double s_mm = radius_mm_ * phi + thread_phase_mm_[index];
+    if (scene_.axial_float_width > 0.0) {
+      // An axial thread floating over this thread at its trough hides it.
+      const double q = AxialPitches(thread, phi);
+      const double w = q - 2.0 * std::round(0.5 * q);  // from the nearest trough
+      if (std::fabs(w) < 0.5 * scene_.axial_float_width) {
+        t.axial = axial(q);
+        if (stray_) t.stray = Stray(phi - view, 0.5 + 0.5 * Round(w / (0.5 * scene_.axial_float_width)));
+        return t;
+      }
+    }
     const double slope = ThreadSlope(scene_.model, m_, scene_.wavelength_mm, s_mm);
     const double beta = -std::atan(slope);
+    const double t_mid = (across - 0.5 * g) / (1.0 - g);
+    if (stray_) {
+      // Relief: half from the undulation (crest high), half from the round
+      // cross-section (the thread's middle high, its edges at the gaps low).
+      const double height = ThreadHeight(scene_.model, scene_.wavelength_mm, s_mm);
+      t.stray = Stray(phi + beta - view, 0.25 * (1.0 + height) + 0.5 * Round(2.0 * t_mid - 1.0));
+    }
     const double eps = phi + beta - mirror;
     // Far outside the source's reach: no glint (saves the rest).
     if (std::fabs(eps) > 8.0 * sigma_beta_) return t;
@@ -171,7 +253,6 @@ class Sampler {
                             (1.0 - g);
     // Crest factor over this sample's share of the thread's width.
     const double half = 0.5 * dv * mm_per_px_ / pitch_mm_ / (1.0 - g);
-    const double t_mid = (across - 0.5 * g) / (1.0 - g);
     const double crest = CrestFactor(std::max(t_mid - half, 0.0), std::min(t_mid + half, 1.0),
                                      crest_kappa0_ * cos_h) / crest_norm_;
     t.specular = in_plane * crest;
@@ -184,12 +265,37 @@ class Sampler {
     return (x - axis_u) * cos_tilt_ / radius_px_;
   }
 
+  // Arc position at azimuth φ in axial pitches (λ/2) from circumferential
+  // thread `thread`'s trough: an axial thread at every integer, passing over
+  // this thread at the even ones and under it at the odd ones.
+  double AxialPitches(int thread, double phi) const {
+    const int index = std::clamp(thread - first_thread_, 0, num_threads_ - 1);
+    const double s_mm = radius_mm_ * phi + thread_phase_mm_[index];
+    return 2.0 * (s_mm / scene_.wavelength_mm - trough_cycles_);
+  }
+
+  // Height of a round cross-section at x radii from its middle, 0 to 1.
+  static double Round(double x) { return std::sqrt(std::max(0.0, 1.0 - x * x)); }
+
+  // Share of the stray light a facet sends to the camera: (1 + cos θ)/2 of a
+  // uniform hemisphere on the camera's side reaches a facet whose normal
+  // makes θ with the camera, and the relief (z = 1 at a crest, 0 at the
+  // bottom of a gap) shades all but 1 − stray_texture·(1 − z) of it.
+  double Stray(double theta, double z) const {
+    return 0.5 * (1.0 + std::cos(theta)) * (1.0 - scene_.stray_texture * (1.0 - z));
+  }
+
   const RenderScene& scene_;
   double cx_, cy_, radius_px_, tan_tilt_, cos_tilt_, sin_tilt_, alpha_, m_, sigma_beta_;
   Projection projection_;
   double radius_mm_, mm_per_px_, pitch_mm_;
   int top_, bottom_;
   double inv_gauss_, crest_kappa0_, crest_norm_;
+  bool stray_ = false;              // stray light on: the relief is needed
+  bool resolved_lines_ = false;     // axial threads as separate glint lines
+  bool axial_coordinates_ = false;  // the gaps need the axial threads' places
+  double axial_radius_ = 0.25;      // an axial thread's radius, axial pitches
+  double trough_cycles_ = 0.0;
   int num_threads_ = 0;
   int first_thread_ = 0;
   std::vector<double> thread_phase_mm_;
@@ -249,6 +355,28 @@ absl::Status RenderScene::Validate() const {
   if (!(vignetting >= 0 && vignetting < 1)) {
     return absl::InvalidArgumentError("vignetting must be in [0, 1)");
   }
+  if (!(mount_half_width > 0 && mount_half_width <= 100)) {
+    return absl::InvalidArgumentError("mount_half_width must be in (0, 100] radii");
+  }
+  if (!(stray_light >= 0 && stray_light <= 1)) {
+    return absl::InvalidArgumentError("stray_light must be in [0, 1]");
+  }
+  if (!(stray_texture >= 0 && stray_texture <= 1)) {
+    return absl::InvalidArgumentError("stray_texture must be in [0, 1]");
+  }
+  if (!(axial_glint_width >= 0 && axial_glint_width <= 1)) {
+    return absl::InvalidArgumentError("axial_glint_width must be in [0, 1]");
+  }
+  if (!(axial_float_width >= 0 && axial_float_width < 1)) {
+    return absl::InvalidArgumentError("axial_float_width must be in [0, 1)");
+  }
+  if (!(std::fabs(background_gradient) <= 1) || !std::isfinite(background_gradient_deg)) {
+    return absl::InvalidArgumentError(
+        "background_gradient must be in [-1, 1] and background_gradient_deg finite");
+  }
+  if (!(black_level >= 0 && black_level <= 0.5)) {
+    return absl::InvalidArgumentError("black_level must be in [0, 0.5]");
+  }
   if (samples_per_pixel < 1 || samples_per_pixel > 16) {
     return absl::InvalidArgumentError("samples_per_pixel must be in [1, 16]");
   }
@@ -261,20 +389,38 @@ absl::Status RenderScene::Validate() const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
-  if (absl::Status s = scene.Validate(); !s.ok()) return s;
-  const Sampler sampler(scene);
-  const int channels = scene.IsColour() ? 3 : 1;
-  Rendered out;
-  Image& image = out.image;
-  image.width = scene.width_px;
-  image.height = scene.height_px;
-  image.channels = channels;
-  image.pixels.assign(static_cast<std::size_t>(image.width) * image.height * channels, 0.0f);
+namespace {
 
-  // Supersampling: samples_per_pixel² everywhere, four times more along the
-  // arc where an in-plane glint may fall. Rows are shared among threads;
-  // nothing random happens here, so the result does not depend on them.
+// Level of the background at image point (u, v): uniform, or a lit
+// backdrop's linear gradient over the frame (never below black).
+double BackgroundAt(const RenderScene& scene, double u, double v) {
+  if (scene.background_gradient == 0.0) return scene.background;
+  const double c = std::cos(scene.background_gradient_deg * kDeg);
+  const double s = std::sin(scene.background_gradient_deg * kDeg);
+  // The frame's extent along the gradient, corner to corner.
+  const double extent = std::fabs(c) * scene.width_px + std::fabs(s) * scene.height_px;
+  const double along = (u - 0.5 * (scene.width_px - 1)) * c + (v - 0.5 * (scene.height_px - 1)) * s;
+  return std::max(0.0, scene.background + scene.background_gradient * along / extent);
+}
+
+// Radiance of one sample in channel c, full-scale units, before the lens.
+double SampleRadiance(const RenderScene& scene, const Terms& t, int c, double u, double v) {
+  if (!t.on_cylinder) return t.mount ? scene.mount_level : BackgroundAt(scene, u, v);
+  double radiance = scene.ambient +
+                    scene.exposure * (scene.specular_rgb[c] * t.specular +
+                                      scene.axial_reflectance * scene.axial_rgb[c] * t.axial) +
+                    scene.diffuse * scene.diffuse_rgb[c] * t.diffuse;
+  // Stray light is reflected diffusely: the threads' diffuse colour.
+  if (scene.stray_light > 0.0) radiance += scene.stray_light * scene.diffuse_rgb[c] * t.stray;
+  return radiance;
+}
+
+// The scene's radiance per pixel, supersampled: samples_per_pixel² everywhere,
+// four times more along the arc where an in-plane glint may fall. Rows are
+// shared among threads; nothing random happens here, so the result does not
+// depend on them.
+void RenderRadiance(const RenderScene& scene, const Sampler& sampler, Image& image) {
+  const int channels = image.channels;
   auto render_rows = [&](int y0, int y1) {
     // Across the threads half as many samples suffice: the crest factor is
     // integrated analytically over each sample's height.
@@ -283,20 +429,14 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
     for (int y = y0; y < y1; ++y) {
       for (int x = 0; x < image.width; ++x) {
         const int sx_count = scene.samples_per_pixel * (sampler.MayGlint(x, y) ? 4 : 1);
+        const double du = 1.0 / sx_count;
         double sum[3] = {0.0, 0.0, 0.0};
         for (int j = 0; j < sy_count; ++j) {
           const double v = y - 0.5 + (j + 0.5) * dv;
           for (int i = 0; i < sx_count; ++i) {
             const double u = x - 0.5 + (i + 0.5) / sx_count;
-            const Terms t = sampler.Sample(u, v, dv);
-            for (int c = 0; c < channels; ++c) {
-              sum[c] += t.on_cylinder
-                            ? scene.ambient +
-                                  scene.exposure * (scene.specular_rgb[c] * t.specular +
-                                                    scene.axial_reflectance * scene.axial_rgb[c] * t.axial) +
-                                  scene.diffuse * scene.diffuse_rgb[c] * t.diffuse
-                            : (t.mount ? scene.mount_level : scene.background);
-            }
+            const Terms t = sampler.Sample(u, v, du, dv);
+            for (int c = 0; c < channels; ++c) sum[c] += SampleRadiance(scene, t, c, u, v);
           }
         }
         for (int c = 0; c < channels; ++c) {
@@ -312,8 +452,11 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
     threads.emplace_back(render_rows, image.height * w / workers, image.height * (w + 1) / workers);
   }
   for (std::thread& t : threads) t.join();
+}
 
-  // Lens: Gaussian PSF, then vignetting (quadratic fall-off to the corners).
+// Lens: Gaussian PSF, then vignetting (quadratic fall-off to the corners).
+void ApplyLens(const RenderScene& scene, Image& image) {
+  const int channels = image.channels;
   if (scene.optics_blur_px > 0) {
     cv::Mat mat(image.height, image.width, CV_32FC(channels), image.pixels.data());
     cv::GaussianBlur(mat, mat, cv::Size(0, 0), scene.optics_blur_px, scene.optics_blur_px,
@@ -333,8 +476,13 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
       }
     }
   }
+}
 
-  // Sensor: Poisson–Gaussian noise, saturation at full scale, quantisation.
+// Sensor: Poisson photon noise on the signal, then the black-level pedestal
+// and Gaussian read noise of the readout, saturation at full scale and
+// quantisation. The pedestal stays in the file, as in a raw-ish lab image.
+void ApplySensor(const RenderScene& scene, Image& image) {
+  const int channels = image.channels;
   std::mt19937 rng(scene.seed ^ 0x9e3779b9u);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double levels = scene.quantisation_bits > 0 ? std::ldexp(1.0, scene.quantisation_bits) - 1 : 0.0;
@@ -344,6 +492,7 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
       std::poisson_distribution<long long> photons(std::max(v, 0.0) * scene.photons_full_scale);
       v = photons(rng) / scene.photons_full_scale;
     }
+    if (scene.black_level > 0) v += scene.black_level;
     v += scene.read_noise * normal(rng);
     v = std::clamp(v, 0.0, 1.0);
     if (levels > 0) v = std::round(v * levels) / levels;
@@ -353,6 +502,23 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
     }
     image.pixels[i] = static_cast<float>(v);
   }
+}
+
+}  // namespace
+
+absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
+  if (absl::Status s = scene.Validate(); !s.ok()) return s;
+  const Sampler sampler(scene);
+  const int channels = scene.IsColour() ? 3 : 1;
+  Rendered out;
+  Image& image = out.image;
+  image.width = scene.width_px;
+  image.height = scene.height_px;
+  image.channels = channels;
+  image.pixels.assign(static_cast<std::size_t>(image.width) * image.height * channels, 0.0f);
+  RenderRadiance(scene, sampler, image);
+  ApplyLens(scene, image);
+  ApplySensor(scene, image);
 
   RenderTruth& truth = out.truth;
   const double m = sampler.max_slope();
@@ -412,7 +578,7 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
       {"periodResolvable", boolean(t.period_resolvable)},
   });
   // Keys are the camelCase of the fields, as `weavefit render --scene` reads them.
-  const std::string scene = object({
+  std::vector<std::pair<std::string, std::string>> scene_fields = {
       {"widthPx", num(s.width_px)},
       {"heightPx", num(s.height_px)},
       {"model", model},
@@ -449,7 +615,25 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
       {"quantisationBits", num(s.quantisation_bits)},
       {"samplesPerPixel", num(s.samples_per_pixel)},
       {"seed", num(s.seed)},
-  });
+  };
+  // The lab-photograph conditions of issue 31 are written only when they
+  // differ from their defaults (which render as before), so that the
+  // sidecars of older scenes stay byte for byte what they were.
+  const RenderScene defaults;
+  auto optional = [&](const char* key, double value, double default_value) {
+    if (value != default_value) scene_fields.emplace_back(key, num(value));
+  };
+  optional("mountHalfWidth", s.mount_half_width, defaults.mount_half_width);
+  optional("strayLight", s.stray_light, defaults.stray_light);
+  if (s.stray_light != defaults.stray_light || s.stray_texture != defaults.stray_texture) {
+    scene_fields.emplace_back("strayTexture", num(s.stray_texture));
+  }
+  optional("axialGlintWidth", s.axial_glint_width, defaults.axial_glint_width);
+  optional("axialFloatWidth", s.axial_float_width, defaults.axial_float_width);
+  optional("backgroundGradient", s.background_gradient, defaults.background_gradient);
+  optional("backgroundGradientDeg", s.background_gradient_deg, defaults.background_gradient_deg);
+  optional("blackLevel", s.black_level, defaults.black_level);
+  const std::string scene = object(scene_fields);
   return absl::StrCat("{\n  \"image\": \"", image_file, "\",\n  \"acquisition\": ", acquisition,
                       ",\n  \"truth\": ", truth, ",\n  \"scene\": ", scene, "\n}\n");
 }

@@ -39,8 +39,34 @@ struct RenderScene {
   double ambient = 0.03;            // uniform level of the cylinder body
   double background = 0.01;         // level outside the cylinder
   // A mount beyond the cylinder's ends (rows outside top/bottom_row_px): a
-  // block 0.6 radii wide on the axis at this level; < 0 = no mount.
+  // block on the axis, mount_half_width radii to either side, at this level;
+  // < 0 = no mount.
   double mount_level = -1.0;
+  double mount_half_width = 0.6;    // half-width of the mount, cylinder radii
+  // Stray light (a lab's room, walls and camera side): a broad diffuse source
+  // that lights the whole body, the side away from the lamp included. A
+  // facet whose normal makes θ with the camera direction sees (1 + cos θ)/2
+  // of it (a uniform hemisphere on the camera's side), and the weave's relief
+  // shades it: crests of the threads get all, the bottoms of the gaps
+  // between the axial threads 1 − stray_texture of it.
+  double stray_light = 0.0;         // level of a fully exposed crest facing the camera; 0 = none
+  double stray_texture = 0.6;       // share of the stray light the relief shades in the deepest gaps
+  // Axial threads resolved one by one: each glints as a line along the axis
+  // whose width is this share of the axial pitch λ/2, carrying the mean of
+  // the grazing lobe over its pitch; 0 = unresolved, a uniform lobe across
+  // each gap.
+  double axial_glint_width = 0.0;   // share of λ/2
+  // Plain weave: an axial thread floats over each other circumferential
+  // thread, at that thread's trough, over this share of λ/2 of the arc; the
+  // axial thread hides the circumferential one there. 0 = axial threads are
+  // seen in the gaps only.
+  double axial_float_width = 0.0;   // share of λ/2
+  // A lit backdrop: the background level changes linearly across the frame
+  // by background_gradient from one edge to the other, brightening toward
+  // background_gradient_deg (0 = toward the right, 90 = toward the bottom).
+  double background_gradient = 0.0;     // full-scale units over the frame
+  double background_gradient_deg = 0.0; // direction, deg
+  double black_level = 0.0;         // sensor pedestal kept in the file, full-scale units
   double gap_fraction = 0.15;       // share of each thread pitch showing axial threads
   // Largest out-of-plane tilt of a circumferential thread's surface at its
   // edges (0 = flat ribbons). A rounded thread glints only along its crest.

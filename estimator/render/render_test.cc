@@ -1,5 +1,7 @@
 // Unit tests of render/: determinism, the derived truth, the noise-free
-// radiance of the body, the sensor model and scene validation.
+// radiance of the body, the sensor model, scene validation, and the
+// conditions of lab photographs (stray light, axial glint lines, background
+// gradient, pedestal, mount).
 #include "estimator/render/render.h"
 
 #include <gtest/gtest.h>
@@ -276,6 +278,277 @@ TEST(RenderTest, TruthJsonCarriesTheTruth) {
   EXPECT_NE(json.find("\"model\": \"SINUSOID\""), std::string::npos);
   EXPECT_EQ(std::count(json.begin(), json.end(), '{'),
             std::count(json.begin(), json.end(), '}'));
+}
+
+// ---------------------------------------------------------------------------
+// What lab photographs do (issue 31): each effect is present when asked for
+// and absent at the defaults, which render as before.
+
+// Light from the right at α = 60°: the lamp's terminator at φ = α − 90° = −30°,
+// so columns with φ < −40° see no direct light.
+RenderScene StrayScene(double stray_light) {
+  RenderScene scene = NoiseFree(TinyScene());
+  scene.width_px = 200;
+  scene.height_px = 160;
+  scene.radius_px = 80.0;
+  scene.center_x_px = 99.5;
+  scene.phase_angle_deg = 60.0;
+  scene.wavelength_mm = 4.0;  // pitch 2 mm = 7 px
+  scene.amplitude_mm = 0.15;
+  scene.samples_per_pixel = 4;
+  scene.stray_light = stray_light;
+  return scene;
+}
+
+struct Stats {
+  double mean = 0.0, variance = 0.0;
+};
+Stats StatsOf(const std::vector<double>& v) {
+  Stats s;
+  for (double x : v) s.mean += x;
+  s.mean /= v.size();
+  for (double x : v) s.variance += (x - s.mean) * (x - s.mean);
+  s.variance /= v.size();
+  return s;
+}
+
+// The shadowed side's pixels (φ from −65° to −45°), by rows and along the arc.
+std::vector<double> ShadowedSide(const Rendered& r) {
+  std::vector<double> out;
+  for (int y = 0; y < r.image.height; ++y) {
+    for (int x = 28; x <= 43; ++x) out.push_back(r.image.At(x, y));
+  }
+  return out;
+}
+
+TEST(RenderLabTest, StrayLightShowsTheWeaveOnTheShadowedSide) {
+  const RenderScene dark = StrayScene(0.0);
+  const Stats none = StatsOf(ShadowedSide(Render(dark)));
+  // Default: the shadowed side is the uniform ambient level, no texture.
+  EXPECT_NEAR(none.mean, dark.ambient, 1e-6);
+  EXPECT_LT(none.variance, 1e-12);
+  double last_mean = none.mean, last_variance = none.variance;
+  for (double level : {0.02, 0.08}) {
+    const Stats lit = StatsOf(ShadowedSide(Render(StrayScene(level))));
+    // A stray level L adds between L·(1 − texture)/2 (a gap's bottom at the
+    // limb) and L (a crest facing the camera).
+    EXPECT_GT(lit.mean - dark.ambient, 0.5 * (1.0 - 0.6) * level) << level;
+    EXPECT_LT(lit.mean - dark.ambient, level) << level;
+    EXPECT_GT(lit.mean, last_mean) << level;
+    // The texture: a standard deviation of a sizeable share of the level.
+    EXPECT_GT(std::sqrt(lit.variance), 0.08 * level) << level;
+    EXPECT_GT(lit.variance, last_variance) << level;
+    last_mean = lit.mean;
+    last_variance = lit.variance;
+  }
+  // Without the relief's shading only the facets' tilts (±13° here) and the
+  // fall-off toward the limb remain: less variance.
+  RenderScene flat = StrayScene(0.08);
+  flat.stray_texture = 0.0;
+  const Stats uniform = StatsOf(ShadowedSide(Render(flat)));
+  EXPECT_LT(uniform.variance, 0.5 * last_variance);
+}
+
+TEST(RenderLabTest, StrayLightCanMatchTheBackground) {
+  // The unlit body as bright as the background (a "dark limb"): the shadowed
+  // side's mean within a few per cent of the background.
+  RenderScene scene = StrayScene(0.0);
+  scene.ambient = 0.0;
+  scene.background = 0.02;
+  scene.stray_light = 0.05;
+  const Stats side = StatsOf(ShadowedSide(Render(scene)));
+  EXPECT_GT(side.mean, 0.5 * scene.background);
+  EXPECT_LT(side.mean, 2.0 * scene.background);
+}
+
+TEST(RenderLabTest, BackgroundGradientIsLinearAcrossTheFrame) {
+  RenderScene scene = NoiseFree(TinyScene());
+  scene.width_px = 200;
+  scene.height_px = 100;
+  scene.radius_px = 40.0;  // wide background on both sides
+  for (float v : {Render(scene).image.At(0, 50), Render(scene).image.At(199, 50)}) {
+    EXPECT_EQ(v, static_cast<float>(scene.background));  // default: uniform
+  }
+  scene.background = 0.05;
+  scene.background_gradient = 0.04;  // brighter toward the right
+  Rendered r = Render(scene);
+  const double slope = (r.image.At(40, 50) - r.image.At(0, 50)) / 40.0;
+  EXPECT_NEAR(slope, 0.04 / 200.0, 1e-6);
+  EXPECT_NEAR(r.image.At(0, 10), 0.05 - 0.02 * 199.0 / 200.0, 1e-6);
+  EXPECT_NEAR(r.image.At(199, 10), 0.05 + 0.02 * 199.0 / 200.0, 1e-6);
+  EXPECT_NEAR(r.image.At(0, 10), r.image.At(0, 90), 1e-7);  // no change down the frame
+  scene.background_gradient_deg = 90.0;  // brighter toward the bottom
+  r = Render(scene);
+  EXPECT_NEAR(r.image.At(5, 90) - r.image.At(5, 10), 0.04 * 80.0 / 100.0, 1e-6);
+  EXPECT_NEAR(r.image.At(5, 50), r.image.At(195, 50), 1e-7);
+}
+
+TEST(RenderLabTest, BlackLevelIsAPedestalKeptInTheFile) {
+  RenderScene scene = NoiseFree(TinyScene());
+  const Rendered plain = Render(scene);
+  scene.black_level = 0.05;
+  const Rendered raised = Render(scene);
+  for (std::size_t i = 0; i < plain.image.pixels.size(); ++i) {
+    ASSERT_NEAR(raised.image.pixels[i] - plain.image.pixels[i], 0.05, 1e-6) << i;
+  }
+  // With noise, the background's mean is the level plus the pedestal.
+  scene = TinyScene();
+  scene.radius_px = 20.0;
+  scene.black_level = 0.04;
+  const Rendered noisy = Render(scene);
+  double sum = 0.0;
+  for (int y = 0; y < 64; ++y) sum += noisy.image.At(2, y) + noisy.image.At(93, y);
+  EXPECT_NEAR(sum / 128.0, scene.background + 0.04, 0.002);
+}
+
+// A scene for the axial threads: a smooth body whose own glint lies on the
+// right (α = 40°, mirror at 20°), the axial threads' lobe over the left.
+RenderScene AxialScene() {
+  RenderScene scene = NoiseFree(TinyScene());
+  scene.model = ProfileModel::kSmooth;
+  scene.width_px = 400;
+  scene.height_px = 200;
+  scene.radius_px = 180.0;  // 23 mm / 180 px = 0.128 mm per px
+  scene.center_x_px = 199.5;
+  scene.phase_angle_deg = 40.0;
+  scene.wavelength_mm = 4.0;  // axial threads 2 mm = 15.7 px apart
+  scene.gap_fraction = 0.3;
+  scene.exposure = 0.05;
+  scene.ambient = 0.0;
+  scene.regular_weave = true;
+  scene.samples_per_pixel = 4;
+  return scene;
+}
+
+// The image along the arc, rectified: the mean over rows every 0.05 mm of
+// arc (linear interpolation between columns) over 16 mm from φ = −40°.
+std::vector<double> ArcProfile(const Rendered& r, const RenderScene& scene) {
+  const double radius_mm = scene.diameter_mm / 2.0;
+  const double s0 = radius_mm * (-40.0 * kDeg);
+  std::vector<double> out;
+  for (int i = 0; i < 320; ++i) {
+    const double x = scene.center_x_px + scene.radius_px * std::sin((s0 + 0.05 * i) / radius_mm);
+    const int x0 = static_cast<int>(std::floor(x));
+    const double f = x - x0;
+    double sum = 0.0;
+    for (int y = 0; y < scene.height_px; ++y) {
+      sum += (1.0 - f) * r.image.At(x0, y) + f * r.image.At(x0 + 1, y);
+    }
+    out.push_back(sum / scene.height_px);
+  }
+  return out;
+}
+
+// Normalised autocorrelation of a mean-subtracted profile at one lag.
+double Autocorrelation(const std::vector<double>& v, int lag) {
+  const Stats s = StatsOf(v);
+  double acc = 0.0;
+  for (std::size_t i = 0; i + lag < v.size(); ++i) acc += (v[i] - s.mean) * (v[i + lag] - s.mean);
+  return acc / ((v.size() - lag) * std::max(s.variance, 1e-30));
+}
+
+TEST(RenderLabTest, AxialThreadsGlintAsLinesHalfAWavelengthApart) {
+  RenderScene scene = AxialScene();
+  // Default: the axial threads are a uniform lobe, no structure along the arc.
+  const std::vector<double> smooth = ArcProfile(Render(scene), scene);
+  const Stats smooth_stats = StatsOf(smooth);
+  EXPECT_LT(std::sqrt(smooth_stats.variance), 0.15 * smooth_stats.mean);
+
+  scene.axial_glint_width = 0.1;
+  const Rendered r = Render(scene);
+  const std::vector<double> lines = ArcProfile(r, scene);
+  const Stats line_stats = StatsOf(lines);
+  // The mean lobe is kept; it is concentrated into lines.
+  EXPECT_NEAR(line_stats.mean, smooth_stats.mean, 0.05 * smooth_stats.mean);
+  EXPECT_GT(std::sqrt(line_stats.variance), 0.8 * line_stats.mean);
+  // The strongest repeat along the arc: λ/2 = 2 mm = 40 bins.
+  int best = 0;
+  double best_value = -1.0;
+  for (int lag = 20; lag <= 60; ++lag) {
+    const double a = Autocorrelation(lines, lag);
+    if (a > best_value) best_value = a, best = lag;
+  }
+  EXPECT_NEAR(best * 0.05, 2.0, 0.1);
+  EXPECT_GT(best_value, 0.5);
+
+  // Broken where the circumferential threads cross over them: along the
+  // brightest column (a line) it is lit only in the gaps (30 % of the rows).
+  auto lit_share = [&](const Rendered& image) {
+    int column = 0;
+    double column_best = -1.0;
+    for (int x = 80; x < 200; ++x) {
+      double sum = 0.0;
+      for (int y = 0; y < scene.height_px; ++y) sum += image.image.At(x, y);
+      if (sum > column_best) column_best = sum, column = x;
+    }
+    float peak = 0.0f;
+    for (int y = 0; y < scene.height_px; ++y) peak = std::max(peak, image.image.At(column, y));
+    int lit = 0;
+    for (int y = 0; y < scene.height_px; ++y) lit += image.image.At(column, y) > 0.3f * peak;
+    return static_cast<double>(lit) / scene.height_px;
+  };
+  const double gaps_only = lit_share(r);
+  EXPECT_NEAR(gaps_only, scene.gap_fraction, 0.12);
+  // A plain weave's floats: each axial thread also runs over every other
+  // circumferential thread, so its lines grow longer, still broken.
+  scene.axial_float_width = 0.3;
+  const double with_floats = lit_share(Render(scene));
+  EXPECT_GT(with_floats, gaps_only + 0.15);
+  EXPECT_LT(with_floats, 0.9);
+}
+
+TEST(RenderLabTest, MountHalfWidth) {
+  RenderScene scene = NoiseFree(TinyScene());
+  scene.top_row_px = 10;
+  scene.mount_level = 0.2;
+  // Radius 38.4 px about column 47.5: 0.6 radii reach columns 25-70.
+  EXPECT_FLOAT_EQ(Render(scene).image.At(20, 3), static_cast<float>(scene.background));
+  EXPECT_FLOAT_EQ(Render(scene).image.At(47, 3), 0.2f);
+  scene.mount_half_width = 1.2;
+  EXPECT_FLOAT_EQ(Render(scene).image.At(20, 3), 0.2f);
+  EXPECT_FLOAT_EQ(Render(scene).image.At(0, 3), static_cast<float>(scene.background));
+}
+
+TEST(RenderLabTest, SidecarCarriesTheLabConditionsOnlyWhenSet) {
+  RenderScene scene = TinyScene();
+  const Rendered r = Render(scene);
+  const std::string plain = TruthJson(scene, r.truth, "a.png");
+  for (const char* key : {"strayLight", "strayTexture", "axialGlintWidth", "axialFloatWidth",
+                          "backgroundGradient", "blackLevel", "mountHalfWidth"}) {
+    EXPECT_EQ(plain.find(key), std::string::npos) << key;
+  }
+  scene.stray_light = 0.03;
+  scene.axial_glint_width = 0.2;
+  scene.background_gradient = -0.01;
+  scene.black_level = 0.02;
+  const std::string lab = TruthJson(scene, r.truth, "a.png");
+  for (const char* key : {"\"strayLight\": 0.03", "\"strayTexture\": 0.6",
+                          "\"axialGlintWidth\": 0.2", "\"backgroundGradient\": -0.01",
+                          "\"blackLevel\": 0.02"}) {
+    EXPECT_NE(lab.find(key), std::string::npos) << key;
+  }
+  EXPECT_EQ(lab.find("axialFloatWidth"), std::string::npos);
+}
+
+TEST(RenderLabTest, ValidateNamesTheLabFields) {
+  auto message = [](const RenderScene& scene) {
+    return std::string(RenderPhotograph(scene).status().message());
+  };
+  RenderScene scene = TinyScene();
+  scene.stray_light = -0.1;
+  EXPECT_NE(message(scene).find("stray_light"), std::string::npos);
+  scene = TinyScene();
+  scene.stray_texture = 1.5;
+  EXPECT_NE(message(scene).find("stray_texture"), std::string::npos);
+  scene = TinyScene();
+  scene.axial_float_width = 1.0;
+  EXPECT_NE(message(scene).find("axial_float_width"), std::string::npos);
+  scene = TinyScene();
+  scene.black_level = -0.01;
+  EXPECT_NE(message(scene).find("black_level"), std::string::npos);
+  scene = TinyScene();
+  scene.mount_half_width = 0.0;
+  EXPECT_NE(message(scene).find("mount_half_width"), std::string::npos);
 }
 
 }  // namespace
