@@ -116,6 +116,37 @@ struct CylinderDetectionOptions {
   absl::Status Validate() const;
 };
 
+// Whether direct light begins inside the part of the disc that should lie in
+// shadow (DESIGN.md §3: stray light reaches the whole body, so the side away
+// from the lamp shows a smooth low level and the weave's texture, not black).
+// `profile` holds column means (index 0 = the profile's first column);
+// columns lo..hi (inclusive) are the region between the unlit limb and the
+// terminator; `center` and `half_width` (px, same indexing) map a column to
+// azimuth through `projection`; `light_side` is +1 for light on the right.
+// Two models of the region's 5-column block means are compared:
+//   M0, the body in stray light: a + b·u + c·cos φ + d·u² (a diffuse
+//       source's low-order irradiance on a Lambertian cylinder, a + b·sin φ
+//       + c·cos φ, plus the background's gradient and vignetting in u);
+//   M1, M0 plus an onset at φ0 inside the region growing toward the light:
+//       the Lambertian max(0, sin(s·(φ − φ0))) or the axial threads' grazing
+//       scatter, a step ∝ 1/cos φ; φ0 scanned over the region.
+// `lit` when M1 is decisively better (see the .cc) and its rise exceeds
+// min_rise. Regions under 8 blocks are not judged (judged and lit false).
+// Not yet the detector's rule (see the TODO in DetectWithSideStrips): alone it
+// let through limbs found on the stray-lit body's roll-off toward its limb.
+struct ShadowOnset {
+  bool judged = false;        // the region held 8 blocks or more
+  bool lit = false;
+  double delta_bic = 0.0;     // BIC(M0) − BIC(M1) of the best onset
+  double onset_column = std::numeric_limits<double>::quiet_NaN();
+  double rise = 0.0;          // largest difference of the M1 and M0 fits
+  double sigma = 0.0;         // the blocks' scatter about M1
+  double level = 0.0;         // median of the block means
+};
+ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
+                            double center, double half_width, int light_side,
+                            const Projection& projection, double min_rise);
+
 // Locates the cylinder in a one-channel linear image. INVALID_ARGUMENT when
 // no cylinder is found (the message says why).
 absl::StatusOr<CylinderGeometry> DetectCylinder(

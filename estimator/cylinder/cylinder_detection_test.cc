@@ -4,9 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "estimator/render/render.h"
@@ -245,6 +247,102 @@ TEST(CylinderGeometryTest, AxisColumnAndNormalisedOffset) {
   EXPECT_NEAR(g.AxisColumn(60.0), 100.0 - 10.0 * std::tan(0.1), 1e-12);
   EXPECT_NEAR(g.NormalisedOffset(100.0 + 40.0 / std::cos(0.1), 50.0), 1.0, 1e-12);
   EXPECT_NEAR(g.NormalisedOffset(g.AxisColumn(10.0), 10.0), 0.0, 1e-12);
+}
+
+// FindShadowOnset on synthetic column profiles: a cylinder 300 px in
+// half-width about column 400, light on the right at α = 60°, so the shadow
+// runs from the left limb (100) to the terminator at φ = −30° (250), taken
+// with margins as columns 103..233.
+struct ShadowScene {
+  double center = 400.0;
+  double half = 300.0;
+  int lo = 103;
+  int hi = 233;
+  Projection projection;
+  double Azimuth(double x) const {
+    return AzimuthFromOffset(std::clamp((x - center) / half, -1.0, 1.0), projection);
+  }
+  // The body in stray light: a level, a gradient across the image, the
+  // diffuse light's cos φ shading, and the weave's texture (a thread every
+  // 7 px) with noise.
+  std::vector<double> StrayLit(int seed) const {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.3);
+    std::vector<double> profile(800, 10.0);
+    for (int x = 0; x < 800; ++x) {
+      const double u = (x - center) / half;
+      if (std::fabs(u) > 1.0) continue;
+      profile[x] = 20.0 + 3.0 * u + 6.0 * std::cos(Azimuth(x)) +
+                   0.8 * std::sin(2.0 * M_PI * x / 7.0) + noise(rng);
+    }
+    return profile;
+  }
+};
+
+TEST(FindShadowOnsetTest, StrayLitShadowWithGradientAndTextureIsNotLit) {
+  const ShadowScene scene;
+  for (int seed = 1; seed <= 5; ++seed) {
+    const ShadowOnset onset = FindShadowOnset(scene.StrayLit(seed), scene.lo, scene.hi,
+                                              scene.center, scene.half, 1, scene.projection, 0.1);
+    EXPECT_TRUE(onset.judged);
+    EXPECT_FALSE(onset.lit) << "seed " << seed << ": dBIC " << onset.delta_bic << " rise "
+                            << onset.rise << " sigma " << onset.sigma;
+  }
+}
+
+TEST(FindShadowOnsetTest, LambertianRampStartingInsideIsLit) {
+  const ShadowScene scene;
+  std::vector<double> profile = scene.StrayLit(3);
+  const double phi0 = scene.Azimuth(170.0);
+  for (int x = 170; x < 800; ++x) {
+    const double u = (x - scene.center) / scene.half;
+    if (u > 1.0) break;
+    profile[x] += 60.0 * std::max(0.0, std::sin(scene.Azimuth(x) - phi0));
+  }
+  const ShadowOnset onset = FindShadowOnset(profile, scene.lo, scene.hi, scene.center,
+                                            scene.half, 1, scene.projection, 0.1);
+  EXPECT_TRUE(onset.lit) << "dBIC " << onset.delta_bic << " rise " << onset.rise << " sigma " << onset.sigma;
+  EXPECT_NEAR(onset.onset_column, 170.0, 8.0);
+}
+
+TEST(FindShadowOnsetTest, GrazingScatterStepInsideIsLit) {
+  const ShadowScene scene;
+  std::vector<double> profile = scene.StrayLit(4);
+  for (int x = 190; x < 700; ++x) profile[x] += 2.0 / std::cos(scene.Azimuth(x));
+  const ShadowOnset onset = FindShadowOnset(profile, scene.lo, scene.hi, scene.center,
+                                            scene.half, 1, scene.projection, 0.1);
+  EXPECT_TRUE(onset.lit) << "dBIC " << onset.delta_bic << " rise " << onset.rise << " sigma " << onset.sigma;
+  EXPECT_NEAR(onset.onset_column, 190.0, 5.0);
+}
+
+TEST(FindShadowOnsetTest, MirroredLightOnTheLeft) {
+  // The same scenes reflected about the axis, the light on the left.
+  const ShadowScene scene;
+  auto mirror = [](const std::vector<double>& p) {
+    std::vector<double> m(p.rbegin(), p.rend());
+    return m;
+  };
+  const int lo = 799 - scene.hi;
+  const int hi = 799 - scene.lo;
+  const double center = 799.0 - scene.center;
+  const std::vector<double> stray = scene.StrayLit(2);
+  EXPECT_FALSE(FindShadowOnset(mirror(stray), lo, hi, center, scene.half, -1, scene.projection,
+                               0.1).lit);
+  std::vector<double> lit = stray;
+  const double phi0 = scene.Azimuth(170.0);
+  for (int x = 170; x < 700; ++x) lit[x] += 60.0 * std::max(0.0, std::sin(scene.Azimuth(x) - phi0));
+  const ShadowOnset onset =
+      FindShadowOnset(mirror(lit), lo, hi, center, scene.half, -1, scene.projection, 0.1);
+  EXPECT_TRUE(onset.lit);
+  EXPECT_NEAR(onset.onset_column, 799.0 - 170.0, 8.0);
+}
+
+TEST(FindShadowOnsetTest, NarrowRegionIsNotJudged) {
+  const ShadowScene scene;
+  const ShadowOnset onset = FindShadowOnset(scene.StrayLit(1), 103, 130, scene.center,
+                                            scene.half, 1, scene.projection, 0.1);
+  EXPECT_FALSE(onset.judged);
+  EXPECT_FALSE(onset.lit);
 }
 
 }  // namespace
