@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/status/status.h"
@@ -153,11 +154,13 @@ constexpr double kSoftEdgePx = 2.5;
 // noises, and this share of the disc's typical level, from the background.
 constexpr double kSeenShadowSigmas = 10.0;
 constexpr double kSeenShadowShare = 0.1;
-// Beyond a limb seen in shadow lies background: 4-10 px out, a lens blur's
-// tail and the background's gradient leave the level well under this share
-// of the way to the shadow's (on the photographs, 0.07 at most where the
-// limb was right); an edge found on the body's roll-off toward its limb
-// leaves it nearer half.
+// Beyond a limb seen in shadow lies background: 4-10 px out, the tail of a
+// lens blur of 1-2 px (σ) keeps a few per cent of the step, and the
+// background's gradient is taken from that side's own strip, so the level
+// there stands well under this share of the way to the shadow's. An edge
+// found on the body's gradual roll-off toward its limb (the stray light
+// falls off like cos φ there) has body, not background, beyond it, and
+// leaves the level near half of the way or more.
 constexpr double kLimbOutsideShare = 1.0 / 3.0;
 
 // Standard errors of the radius and of each limb from the two limb lines:
@@ -518,44 +521,26 @@ std::pair<double, double> BrightExtent(const std::vector<double>& mean_profile, 
   return {first + x0, last + x0};
 }
 
-// A small least-squares fit by the normal equations (Gaussian elimination
-// with partial pivoting): the residual sum of squares and the coefficients
-// of y ≈ Σ c_k·basis[k]. Infinite RSS when the basis is degenerate.
+// A small linear least-squares fit (OpenCV's QR): the residual sum of
+// squares and the coefficients of y ≈ Σ c_k·basis[k]. Infinite RSS when the
+// basis is degenerate.
 double LeastSquaresRss(const std::vector<std::vector<double>>& basis,
                        const std::vector<double>& y, std::vector<double>* coefficients) {
-  const std::size_t k = basis.size();
-  const std::size_t n = y.size();
-  std::vector<std::vector<double>> a(k, std::vector<double>(k + 1, 0.0));
-  for (std::size_t i = 0; i < k; ++i) {
-    for (std::size_t j = 0; j < k; ++j) {
-      for (std::size_t t = 0; t < n; ++t) a[i][j] += basis[i][t] * basis[j][t];
-    }
-    for (std::size_t t = 0; t < n; ++t) a[i][k] += basis[i][t] * y[t];
+  const int k = static_cast<int>(basis.size());
+  const int n = static_cast<int>(y.size());
+  cv::Mat a(n, k, CV_64F);
+  for (int c = 0; c < k; ++c) {
+    for (int t = 0; t < n; ++t) a.at<double>(t, c) = basis[c][t];
   }
-  for (std::size_t c = 0; c < k; ++c) {
-    std::size_t p = c;
-    for (std::size_t r = c + 1; r < k; ++r) {
-      if (std::fabs(a[r][c]) > std::fabs(a[p][c])) p = r;
-    }
-    std::swap(a[c], a[p]);
-    if (!(std::fabs(a[c][c]) > 1e-12 * (1.0 + std::fabs(a[0][0])))) {
-      return std::numeric_limits<double>::infinity();
-    }
-    for (std::size_t r = 0; r < k; ++r) {
-      if (r == c) continue;
-      const double f = a[r][c] / a[c][c];
-      for (std::size_t j = c; j <= k; ++j) a[r][j] -= f * a[c][j];
-    }
-  }
-  coefficients->assign(k, 0.0);
-  for (std::size_t c = 0; c < k; ++c) (*coefficients)[c] = a[c][k] / a[c][c];
-  double rss = 0.0;
-  for (std::size_t t = 0; t < n; ++t) {
-    double fit = 0.0;
-    for (std::size_t c = 0; c < k; ++c) fit += (*coefficients)[c] * basis[c][t];
-    rss += (y[t] - fit) * (y[t] - fit);
-  }
-  return rss;
+  const cv::Mat b(n, 1, CV_64F, const_cast<double*>(y.data()));
+  cv::Mat x;
+  if (n < k || !cv::solve(a, b, x, cv::DECOMP_QR)) return std::numeric_limits<double>::infinity();
+  cv::SVD svd(a, cv::SVD::NO_UV);
+  const double* w = svd.w.ptr<double>();
+  if (!(w[k - 1] > 1e-12 * w[0])) return std::numeric_limits<double>::infinity();
+  coefficients->assign(x.ptr<double>(), x.ptr<double>() + k);
+  const cv::Mat residual = a * x - b;
+  return residual.dot(residual);
 }
 
 }  // namespace
