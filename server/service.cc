@@ -47,8 +47,11 @@ struct WeaveFitService::Call {
   std::int64_t call_bytes = 0;
   UploadLimits::Pass pass;
 
-  // From the end of the upload, on the worker only.
+  // Set by the reactor when the upload is complete (the watchdog reads it
+  // to word its message).
   std::atomic<bool> uploaded{false};
+  // From the end of the upload: set by the reactor before the job is
+  // scheduled, then used by the worker alone.
   std::int64_t working_bytes = 0;
   Admission::Ticket ticket;
 
