@@ -21,6 +21,7 @@
 #include <utility>
 
 #include "absl/status/status.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -91,7 +92,22 @@ std::string Num(double x) { return std::isfinite(x) ? absl::StrFormat("%.6g", x)
 struct MethodStats {
   std::vector<double> ms, spacing_err;
   int images = 0, model_right = 0, compared = 0, covered = 0, errors = 0;
+  // The cylinder against the sidecar's truth (centerXPx, radiusPx,
+  // axisAngleDeg), where it has one: absolute errors, px and deg.
+  std::vector<double> center_err, radius_err, axis_err, detect_ms;
+  int refused_at_detection = 0;
+  // Radius more than 3 stated errors and 2 px off: a wrong cylinder stated
+  // as right.
+  int radius_misstated = 0;
 };
+
+// A limb's word for the CSV: which were seen, which inferred.
+std::string LimbsSeen(const CylinderGeometry& c) {
+  if (c.left_observed && c.right_observed) return "both";
+  if (c.left_observed) return "right inferred";
+  if (c.right_observed) return "left inferred";
+  return "none";
+}
 
 const char* MethodName(const std::string& mode) {
   if (mode == "fast") return "peak picking (fast)";
@@ -116,7 +132,8 @@ int RunBench(const BenchFlags& flags) {
       "peaks_ms,fit_ms,glints_ms,truth_spacing_deg,spacing_deg,spacing_stderr_deg,"
       "spacing_resolved,spacing_error_deg,max_slope_rel_error,truth_wavelength_mm,"
       "wavelength_mm,wavelength_stderr_mm,wavelength_resolved,wavelength_rel_error,"
-      "amplitude_rel_error,mirror_error_deg,error\n";
+      "amplitude_rel_error,mirror_error_deg,center_error_px,radius_error_px,radius_stderr_px,"
+      "axis_error_deg,limbs_seen,error\n";
   std::map<std::string, MethodStats> stats;
   int used = 0;
   for (const std::string& image : images) {
@@ -144,6 +161,10 @@ int RunBench(const BenchFlags& flags) {
     const double truth_lambda = StructNumber(*sidecar, "truth", "wavelengthMm").value_or(0.0);
     const double truth_h0 = StructNumber(*sidecar, "truth", "amplitudeMm").value_or(0.0);
     const double truth_mirror = StructNumber(*sidecar, "truth", "mirrorAzimuthDeg").value_or(0.0);
+    const auto truth_cx = StructNumber(*sidecar, "truth", "centerXPx");
+    const auto truth_row = StructNumber(*sidecar, "truth", "centerRowPx");
+    const auto truth_radius = StructNumber(*sidecar, "truth", "radiusPx");
+    const auto truth_axis = StructNumber(*sidecar, "truth", "axisAngleDeg");
     const bool split = StructNumber(*sidecar, "truth", "splitResolvable").has_value()
                            ? true
                            : *truth_model != "SMOOTH";
@@ -164,7 +185,9 @@ int RunBench(const BenchFlags& flags) {
       std::vector<std::string> row = {name, mode, *truth_model};
       if (!estimate.ok()) {
         ++st.errors;
-        row.resize(25);
+        st.refused_at_detection +=
+            absl::StartsWith(estimate.status().message(), "no cylinder found");
+        row.resize(30);
         row.push_back(absl::StrCat("\"", estimate.status().message(), "\""));
         csv += absl::StrJoin(row, ",") + "\n";
         continue;
@@ -205,6 +228,23 @@ int RunBench(const BenchFlags& flags) {
       row.push_back(e.amplitude_mm.resolved && truth_h0 > 0 ? Num(e.amplitude_mm.value / truth_h0 - 1.0) : "");
       row.push_back(e.specular_azimuth_rad.resolved
                         ? Num(e.specular_azimuth_rad.value / kDeg - truth_mirror) : "");
+      const CylinderGeometry& c = e.cylinder;
+      if (stage_ms.count("detect")) st.detect_ms.push_back(stage_ms["detect"]);
+      const double center_err =
+          truth_cx && truth_row ? c.AxisColumn(*truth_row) - *truth_cx : std::nan("");
+      const double radius_err = truth_radius ? c.radius_px - *truth_radius : std::nan("");
+      const double axis_err = truth_axis ? c.axis_angle_rad / kDeg - *truth_axis : std::nan("");
+      if (std::isfinite(center_err)) st.center_err.push_back(std::fabs(center_err));
+      if (std::isfinite(axis_err)) st.axis_err.push_back(std::fabs(axis_err));
+      if (std::isfinite(radius_err)) {
+        st.radius_err.push_back(std::fabs(radius_err));
+        st.radius_misstated += std::fabs(radius_err) > std::max(2.0, 3.0 * c.radius_stderr_px);
+      }
+      row.push_back(Num(center_err));
+      row.push_back(Num(radius_err));
+      row.push_back(Num(c.radius_stderr_px));
+      row.push_back(Num(axis_err));
+      row.push_back(LimbsSeen(c));
       row.push_back("");
       csv += absl::StrJoin(row, ",") + "\n";
     }
@@ -237,6 +277,18 @@ int RunBench(const BenchFlags& flags) {
     std::cout << absl::StrFormat("%-34s %7d %10.1f %18.3f %7d/%-2d %5d/%-2d\n", MethodName(mode),
                                  st.images, Median(st.ms), Median(st.spacing_err), st.model_right,
                                  st.images, st.covered, st.compared);
+  }
+  // The cylinder, where the sidecars give its truth.
+  for (const std::string& mode : flags.modes) {
+    const MethodStats& st = stats[mode];
+    if (st.center_err.empty()) continue;
+    std::cout << absl::StrFormat(
+        "cylinder (%s): %d of %d refused at detection; |centre err| px median %.2f p90 %.2f; "
+        "|radius err| px median %.2f p90 %.2f; |axis err| deg median %.3f; radius >3 se and "
+        ">2 px off: %d; detect ms median %.1f\n",
+        mode, st.refused_at_detection, st.images, Median(st.center_err),
+        Quantile(st.center_err, 0.9), Median(st.radius_err), Quantile(st.radius_err, 0.9),
+        Median(st.axis_err), st.radius_misstated, Median(st.detect_ms));
   }
   const std::string summary_path = flags.out_dir + "/summary.csv";
   if (absl::Status s = WriteFile(summary_path, summary); !s.ok()) {
