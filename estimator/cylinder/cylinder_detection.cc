@@ -105,22 +105,6 @@ Line FitLimbLine(const std::vector<LimbPoint>& points, double center_row) {
   return line;
 }
 
-// Sub-pixel position where a band profile crosses `level` between columns
-// a and b (a < b or a > b), by linear interpolation between pixel centres.
-double Crossing(const std::vector<double>& profile, int a, int b,
-                double level) {
-  const int step = b > a ? 1 : -1;
-  for (int x = a; x != b; x += step) {
-    const double p0 = profile[x] - level;
-    const double p1 = profile[x + step] - level;
-    if ((p0 <= 0) != (p1 <= 0)) {
-      const double t = p0 / (p0 - p1);
-      return x + step * t;
-    }
-  }
-  return a;
-}
-
 // At the limb toward the light, a rise inward of this share of the
 // surface's level above the background is a glint (see RefineEdge); a band
 // mean's noise and the cloth's texture rise by a few per cent.
@@ -497,6 +481,334 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   return best_e;
 }
 
+// One band's first limb estimates (columns of the band's profile), and the
+// background each limb stands on.
+struct BandLimbs {
+  bool found = false;
+  int left = -1;   // first column of the step at each side
+  int right = -1;
+  double left_cross = 0.0;   // sub-pixel step position
+  double right_cross = 0.0;
+  double left_background = 0.0;   // the side strip's level, each side
+  double right_background = 0.0;
+};
+
+// The limbs of one band: from each side strip inward, the first step out of
+// the background. A step is where the difference of the three columns'
+// mean beyond and before a column, D(x), stands `threshold` above zero
+// (either sign: a body brighter or darker than the background), at the
+// first maximum of |D| that follows (a blurred step's derivative peaks at
+// its half-level point; a parabola through the peak places it between
+// pixels). A step, not a level: the background's gradient and vignetting
+// change the level by far less than the threshold over four columns, and a
+// body whose stray light rolls off toward its limb still ends in a step
+// there (the diffuse irradiance falls like cos φ, whose slope in columns
+// steepens to the limb), so the edge is not found part-way down the
+// roll-off where the level first differs from the background's.
+BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double threshold,
+                        int min_separation) {
+  BandLimbs b;
+  const int w = static_cast<int>(profile.size());
+  // Three columns each side: room for a limb a few pixels from the frame.
+  constexpr int kHalf = 3;
+  if (w < 2 * side + 4 * kHalf) return b;
+  std::vector<double> prefix(w + 1, 0.0);
+  for (int x = 0; x < w; ++x) prefix[x + 1] = prefix[x] + profile[x];
+  auto d = [&](int x) {
+    return (prefix[x + kHalf + 1] - prefix[x + 1] - (prefix[x] - prefix[x - kHalf])) / kHalf;
+  };
+  std::vector<double> strip(profile.begin(), profile.begin() + side);
+  b.left_background = Median(strip);
+  strip.assign(profile.end() - side, profile.end());
+  b.right_background = Median(strip);
+  const int lo = std::max(side, kHalf);
+  const int hi = std::min(w - 1 - side, w - 1 - kHalf);
+  auto place = [&](int from, int step, int* at, double* cross) {
+    for (int x = from; x >= lo && x <= hi; x += step) {
+      if (!(std::fabs(d(x)) > threshold)) continue;
+      const double sign = d(x) > 0 ? 1.0 : -1.0;
+      // The first maximum: a glint just inside the limb toward the light
+      // steps up further and would draw a larger maximum inward.
+      int peak = x;
+      for (int k = 1; k <= 2 * kHalf; ++k) {
+        const int y = x + step * k;
+        if (y < lo || y > hi || !(sign * d(y) > sign * d(peak))) break;
+        peak = y;
+      }
+      *at = x;
+      *cross = peak;
+      if (peak > lo && peak < hi) {
+        const double a = sign * d(peak - 1), c = sign * d(peak), e = sign * d(peak + 1);
+        const double den = a - 2.0 * c + e;
+        if (den < 0.0) *cross = peak + std::clamp(0.5 * (a - e) / den, -0.5, 0.5);
+      }
+      // D(x) differences columns x+1.. and ..x−1: a step between columns
+      // x0−1 and x0 gives a plateau at x0−1 and x0, centred on the step.
+      return true;
+    }
+    return false;
+  };
+  if (!place(lo, +1, &b.left, &b.left_cross) || !place(hi, -1, &b.right, &b.right_cross)) {
+    return b;
+  }
+  b.found = b.right_cross - b.left_cross >= min_separation && b.left > lo && b.right < hi;
+  return b;
+}
+
+// The step at column x over h columns, toward `step` (+1: the body at
+// larger columns): the mean of profile[x+1 .. x+h] less the least-squares
+// line through the 2h columns before them, carried on to their middle.
+// NaN when the windows leave the profile. `sigma` is the step's standard
+// error in units of one column's noise.
+double ExtrapolatedStep(const std::vector<double>& profile, int x, int h, int step,
+                        double* sigma) {
+  const int n = static_cast<int>(profile.size());
+  const int far = x - step * 2 * h;
+  const int near = x + step * h;
+  if (std::min(far, near) < 0 || std::max(far, near) >= n) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  // Positions t = 1..2h counted from the far end toward x; the beyond
+  // window's middle at t = 2h + (h + 1)/2.
+  double st = 0, sy = 0, stt = 0, sty = 0;
+  for (int t = 1; t <= 2 * h; ++t) {
+    const double y = profile[far + step * (t - 1)];
+    st += t;
+    sy += y;
+    stt += double(t) * t;
+    sty += t * y;
+  }
+  const double m = 2.0 * h;
+  const double tbar = st / m;
+  const double sxx = stt - st * st / m;
+  const double slope = (sty - st * sy / m) / sxx;
+  const double at = 2.0 * h + 0.5 * (h + 1);
+  const double predicted = sy / m + slope * (at - tbar);
+  double beyond = 0.0;
+  for (int k = 1; k <= h; ++k) beyond += profile[x + step * k];
+  beyond /= h;
+  // Var(prediction) = σ²(1/m + (at − t̄)²/Sxx) (the beyond window's own
+  // columns spread about its middle cancel in its mean), plus σ²/h.
+  *sigma = std::sqrt(1.0 / m + (at - tbar) * (at - tbar) / sxx + 1.0 / h);
+  return beyond - predicted;
+}
+
+// Where profile[a..b] breaks from a flat background into a body (a jump and
+// a slope): the column boundary e (between pixel centres e − 0.5 and
+// e + 0.5 for step +1, the body at larger columns) that leaves the least
+// residual of a constant on the background's side and a line on the
+// body's. A blurred step and a slow rise from the limb alike break there.
+// `jump_sigmas` (optional) gets the body line's jump at the break over the
+// background's level, in units of one column's noise times its standard
+// error's factor.
+double BreakPoint(const std::vector<double>& profile, int a, int b, int step,
+                  double* jump = nullptr, double* jump_factor = nullptr) {
+  double best = std::numeric_limits<double>::infinity();
+  double at = std::numeric_limits<double>::quiet_NaN();
+  for (int e = a + 2; e <= b - 2; ++e) {
+    // Background: [a, e) for step +1, (e, b] below as [e + 1, b] mirrored.
+    const int bg_lo = step > 0 ? a : e + 1;
+    const int bg_hi = step > 0 ? e - 1 : b;
+    const int body_lo = step > 0 ? e : a;
+    const int body_hi = step > 0 ? b : e;
+    double sum = 0.0, sum_sq = 0.0;
+    for (int x = bg_lo; x <= bg_hi; ++x) {
+      sum += profile[x];
+      sum_sq += profile[x] * profile[x];
+    }
+    const int nb = bg_hi - bg_lo + 1;
+    double rss = sum_sq - sum * sum / nb;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+    const int n = body_hi - body_lo + 1;
+    for (int x = body_lo; x <= body_hi; ++x) {
+      sx += x;
+      sy += profile[x];
+      sxx += double(x) * x;
+      sxy += x * profile[x];
+      syy += profile[x] * profile[x];
+    }
+    const double vxx = sxx - sx * sx / n, vxy = sxy - sx * sy / n, vyy = syy - sy * sy / n;
+    rss += vxx > 0.0 ? vyy - vxy * vxy / vxx : vyy;
+    if (rss < best) {
+      best = rss;
+      at = step > 0 ? e - 0.5 : e + 0.5;
+      const double line_slope = vxx > 0.0 ? vxy / vxx : 0.0;
+      const double xbar = sx / n;
+      const double d = at - xbar;
+      if (jump != nullptr) *jump = sy / n + line_slope * d - sum / nb;
+      if (jump_factor != nullptr) {
+        *jump_factor = std::sqrt(1.0 / nb + 1.0 / n + (vxx > 0.0 ? d * d / vxx : 0.0));
+      }
+    }
+  }
+  return at;
+}
+
+// The limbs seen in all the given rows at once: each row's columns shifted
+// along the axis's slope (columns per row, about center_row) and summed
+// into one profile, whose outermost steps (FindBandLimbs, with the noise of
+// that many rows) are the limbs at center_row, in region columns. A limb
+// whose step is too faint for one band's rows (stray light that leaves the
+// body near its limb barely above the background) stands out of all of
+// them; a band then finds its first step further in, on the body's rise.
+BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
+                           const std::vector<int>& rows, double slope, double center_row,
+                           int side, double noise, int min_separation) {
+  std::vector<double> sum(region.width, 0.0);
+  std::vector<int> count(region.width, 0);
+  for (int y : rows) {
+    const double shift = slope * (y - center_row);
+    const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
+    for (int x = 0; x < region.width; ++x) {
+      const double at = region.x + x + shift;
+      const int x0 = static_cast<int>(std::floor(at));
+      if (x0 < region.x || x0 + 1 >= region.x + region.width) continue;
+      const double t = at - x0;
+      sum[x] += (1.0 - t) * row[x0] + t * row[x0 + 1];
+      ++count[x];
+    }
+  }
+  // Columns that some rows' shift carried out of the region are left as
+  // the nearest full column (the side strips hold only background).
+  const int full = static_cast<int>(rows.size());
+  std::vector<double> profile(region.width, 0.0);
+  int first_full = -1;
+  int last_full = -1;
+  for (int x = 0; x < region.width; ++x) {
+    if (count[x] != full || full == 0) continue;
+    if (first_full < 0) first_full = x;
+    last_full = x;
+  }
+  if (first_full < 0) return BandLimbs();
+  for (int x = 0; x < region.width; ++x) {
+    const int from = std::clamp(x, first_full, last_full);
+    profile[x] = sum[from] / full;
+  }
+  // Steps over 4, 8 and 16 columns: a body that rises slowly from its limb
+  // (stray light grazing it) shows over the wider ones first. A step at x is
+  // the mean of the h columns beyond x less the line through the 2h columns
+  // before it carried on to them: the background's gradient and vignetting
+  // are carried with it, which at the noise of all rows would pass for a
+  // step (ExtrapolatedStep). The first x from each side where one stands
+  // kShearedSigmas above its noise starts a window; the limb is where the
+  // window's profile breaks from the background into the body's jump and
+  // slope (BreakPoint). kShearedSigmas: a few hundred columns are tried at
+  // three widths, and a Gaussian false step of 6σ comes once in 10^9.
+  constexpr double kShearedSigmas = 6.0;
+  const double column_noise = noise / std::sqrt(static_cast<double>(full));
+  // And at least kMinStepShare of the body's typical contrast with the
+  // background (the median over the middle half of the columns), as in the
+  // bands: a render without noise has none to set the scale.
+  constexpr double kMinStepShare = 0.005;
+  std::vector<double> middle(profile.begin() + region.width / 4,
+                             profile.begin() + 3 * region.width / 4);
+  std::vector<double> strips(profile.begin(), profile.begin() + side);
+  strips.insert(strips.end(), profile.end() - side, profile.end());
+  const double floor = kMinStepShare * std::fabs(Median(middle) - Median(strips));
+  BandLimbs limbs;
+  auto first_step = [&](int step) {
+    for (int k = side; k < region.width - side; ++k) {
+      const int x = step > 0 ? k : region.width - 1 - k;
+      for (int h : {4, 8, 16}) {
+        double sigma = 0.0;
+        const double d = ExtrapolatedStep(profile, x, h, step, &sigma);
+        if (!(std::fabs(d) > std::max(kShearedSigmas * sigma * column_noise, floor))) continue;
+        const int a = step > 0 ? x - h : x - 2 * h;
+        const int b = step > 0 ? x + 2 * h : x + h;
+        // A limb is a jump out of the background, however small: where the
+        // profile only bends (the shading of a body in shadow at the
+        // background's level) the search goes on.
+        double jump = 0.0;
+        double factor = 1.0;
+        const double e = BreakPoint(profile, std::max(a, 0), std::min(b, region.width - 1), step,
+                                    &jump, &factor);
+        if (std::fabs(jump) > std::max(kShearedSigmas * factor * column_noise, floor)) return e;
+        break;
+      }
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  limbs.left_cross = first_step(+1);
+  limbs.right_cross = first_step(-1);
+  limbs.found = std::isfinite(limbs.left_cross) && std::isfinite(limbs.right_cross) &&
+                limbs.right_cross - limbs.left_cross >= min_separation;
+  return limbs;
+}
+
+// The bands where both limbs were found: their first limb estimates and
+// profiles, and the scatter each limb's first fit gave.
+struct BandEdges {
+  double row = 0.0;
+  double left_cross = 0.0;
+  double right_cross = 0.0;
+  double radius = 0.0;
+  std::vector<double> profile;
+  // Columns (of the region) where a pixel of the band's rows clipped: the
+  // band's mean there is a lower bound, and the edge fits leave it out.
+  std::vector<std::uint8_t> clipped;
+  // The background beside each limb: its side strip's level in this band
+  // (a gradient or vignetting puts the two apart).
+  double left_background = 0.0;
+  double right_background = 0.0;
+  int first = 0;  // the band's rows, inclusive
+  int last = 0;
+};
+
+// Where all rows see a limb more than kReseedPx further out than the line
+// through the bands' own first estimates, the bands' estimates of that limb
+// move onto the all-rows limb (along the same slope): a band's noise can
+// hide a faint step, not invent one further out, so only an outward move is
+// taken. The slope is that of the limb whose bands agree best (more of them
+// on its line; then the smaller scatter).
+// Returns which limbs moved ({left, right}).
+std::pair<bool, bool> ReseedFaintLimbs(const Image& luminance, const PixelRegion& region,
+                                       double center_row, int side, double noise,
+                                       const CylinderDetectionOptions& options,
+                                       std::vector<BandEdges>* bands) {
+  constexpr double kReseedPx = 2.0;
+  if (bands->size() < 3) return {false, false};
+  std::vector<LimbPoint> left_first;
+  std::vector<LimbPoint> right_first;
+  for (const BandEdges& b : *bands) {
+    left_first.push_back({b.row, b.left_cross});
+    right_first.push_back({b.row, b.right_cross});
+  }
+  const Line left = FitLimbLine(left_first, center_row);
+  const Line right = FitLimbLine(right_first, center_row);
+  auto inliers = [](const Line& l) { return std::count(l.inlier.begin(), l.inlier.end(), true); };
+  const bool use_left = inliers(left) > inliers(right) ||
+                        (inliers(left) == inliers(right) && left.rms < right.rms);
+  const double slope = use_left ? left.slope : right.slope;
+  // The rows of the bands on both lines, at most kRows of them.
+  constexpr int kRows = 512;
+  std::vector<int> rows;
+  int total = 0;
+  for (std::size_t i = 0; i < bands->size(); ++i) {
+    if (left.inlier[i] && right.inlier[i]) total += (*bands)[i].last - (*bands)[i].first + 1;
+  }
+  const int stride = std::max(1, total / kRows);
+  int k = 0;
+  for (std::size_t i = 0; i < bands->size(); ++i) {
+    if (!left.inlier[i] || !right.inlier[i]) continue;
+    for (int y = (*bands)[i].first; y <= (*bands)[i].last; ++y, ++k) {
+      if (k % stride == 0) rows.push_back(y);
+    }
+  }
+  if (rows.size() < 3) return {false, false};
+  const BandLimbs all = FindShearedLimbs(luminance, region, rows, slope, center_row, side, noise,
+                                         static_cast<int>(2 * options.min_radius_px));
+  if (!all.found) return {false, false};
+  const bool left_out = all.left_cross < left.at_center - kReseedPx;
+  const bool right_out = all.right_cross > right.at_center + kReseedPx;
+  for (BandEdges& b : *bands) {
+    const double along = slope * (b.row - center_row);
+    if (left_out) b.left_cross = all.left_cross + along;
+    if (right_out) b.right_cross = all.right_cross + along;
+    b.radius = 0.5 * (b.right_cross - b.left_cross);
+  }
+  return {left_out, right_out};
+}
+
 // The first and last columns of [from, to] more than half-way from the
 // median to the maximum: the ends of the specular lobe (for a split lobe, its
 // two caustics, whichever of them is the brighter). NaN when none is.
@@ -684,14 +996,18 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   const int side = std::max(2, static_cast<int>(std::lround(side_fraction * region.width)));
   const int row_step = std::max(1, region.height / 256);
   std::vector<double> samples;
+  std::vector<double> left_samples;
+  std::vector<double> right_samples;
   // At most about 32 columns per side and row (every one on small images).
   const int column_step = std::max(1, side / 32);
   for (int y = region.y; y < region.y + region.height; y += row_step) {
     for (int i = 0; i < side; i += column_step) {
-      samples.push_back(luminance.At(region.x + i, y));
-      samples.push_back(luminance.At(region.x + region.width - 1 - i, y));
+      left_samples.push_back(luminance.At(region.x + i, y));
+      right_samples.push_back(luminance.At(region.x + region.width - 1 - i, y));
     }
   }
+  samples = left_samples;
+  samples.insert(samples.end(), right_samples.begin(), right_samples.end());
   const double background = Median(samples);
   for (double& s : samples) s = std::fabs(s - background);
   const double noise = std::max(1.4826 * Median(samples), 1e-6);
@@ -709,18 +1025,6 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
-  // The bands where both limbs were found: their first limb estimates and
-  // profiles, and the scatter each limb's first fit gave.
-  struct BandEdges {
-    double row = 0.0;
-    double left_cross = 0.0;
-    double right_cross = 0.0;
-    double radius = 0.0;
-    std::vector<double> profile;
-    // Columns (of the region) where a pixel of the band's rows clipped: the
-    // band's mean there is a lower bound, and the edge fits leave it out.
-    std::vector<std::uint8_t> clipped;
-  };
   std::vector<BandEdges> bands_seen;
   std::vector<int> band_first(bands);
   std::vector<int> band_last(bands);
@@ -760,82 +1064,18 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       p /= band_rows;
       peak = std::max(peak, p);
     }
-    // Limbs are found on the band profile smoothed over kBox columns, so
-    // that a dim limb still stands out of the noise; the sub-pixel position
-    // comes from the unsmoothed profile below.
-    constexpr int kBox = 5;
-    std::vector<double> smoothed(region.width, 0.0);
-    {
-      // A running sum over the box, truncated at the region's ends.
-      double sum = 0.0;
-      for (int k = 0; k < std::min(kBox / 2, region.width); ++k) sum += profile[k];
-      for (int x = 0; x < region.width; ++x) {
-        if (x + kBox / 2 < region.width) sum += profile[x + kBox / 2];
-        if (x - kBox / 2 - 1 >= 0) sum -= profile[x - kBox / 2 - 1];
-        const int count = std::min(region.width - 1, x + kBox / 2) - std::max(0, x - kBox / 2) + 1;
-        smoothed[x] = sum / count;
-      }
-    }
-    // A limb is a step away from the background level, up (a lit or grey
-    // body on black) or down (a dark cloth on a brighter background).
+    // A step's noise: the difference of two three-column means of the band.
     const double threshold =
-        std::max(options.edge_sigmas * noise / std::sqrt(band_rows * kBox),
+        std::max(options.edge_sigmas * noise * std::sqrt(2.0 / (3.0 * band_rows)),
                  0.005 * (peak - background));
-    auto above = [&](int x) {
-      return x >= 0 && x < region.width && std::fabs(smoothed[x] - background) > threshold;
-    };
-    int left = -1;
-    for (int x = side; x + 2 < region.width - side; ++x) {
-      if (above(x) && above(x + 1) && above(x + 2)) {
-        left = x;
-        break;
-      }
-    }
-    int right = -1;
-    for (int x = region.width - 1 - side; x - 2 >= side; --x) {
-      if (above(x) && above(x - 1) && above(x - 2)) {
-        right = x;
-        break;
-      }
-    }
-    // A limb found at the first column searched lies in (or beyond) the side
-    // strip taken as background: its position is not measured, and the
-    // band is left out.
-    if (left < 0 || right < 0 || right - left < 2 * options.min_radius_px || left == side ||
-        right == region.width - 1 - side) {
-      continue;
-    }
-    // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
-    // step's half-level crossing in place) crosses half-way between the
-    // background and the surface level just inside the limb. The first
-    // column above the threshold has the limb pixel (partly covered) at the
-    // end of its box, two columns on; the first wholly covered pixel is the
-    // third. Its own (unsmoothed) value is the level: any further in may be
-    // the lit surface beyond the terminator of an unlit limb. At the limb
-    // toward the light, where glints may reach it, a third column standing
-    // well above the next three is a glint, and their least is the level: a
-    // glint there (1 px inside the limb at α = 140°) made the half level one
-    // the smoothed profile never crossed, and the limb was put 4.7 px out.
-    auto inside_level = [&](int from, int step, bool glints_may_reach) {
-      const double level = profile[std::clamp(from + 3 * step, 0, region.width - 1)];
-      if (!glints_may_reach) return level;
-      double least = level;
-      for (int k = 4; k <= 6; ++k) {
-        least = std::min(least, profile[std::clamp(from + k * step, 0, region.width - 1)]);
-      }
-      return level > least + kEdgeRise * std::max(least - background, 0.0) ? least : level;
-    };
-    const double left_half =
-        0.5 * (background + inside_level(left, +1, glints_reach_limb && light < 0));
-    const double right_half =
-        0.5 * (background + inside_level(right, -1, glints_reach_limb && light > 0));
+    const BandLimbs limbs =
+        FindBandLimbs(profile, side, threshold, static_cast<int>(2 * options.min_radius_px));
+    if (!limbs.found) continue;
     const double row = 0.5 * (y0 + y1 - 1);
-    const double left_cross = Crossing(smoothed, std::max(left - 3, 0),
-                                       std::min(left + 4, region.width - 1), left_half);
-    const double right_cross = Crossing(smoothed, std::min(right + 3, region.width - 1),
-                                        std::max(right - 4, 0), right_half);
-    const double band_radius = 0.5 * (right_cross - left_cross);
-    bands_seen.push_back({row, left_cross, right_cross, band_radius, profile, std::move(clipped)});
+    const double band_radius = 0.5 * (limbs.right_cross - limbs.left_cross);
+    bands_seen.push_back({row, limbs.left_cross, limbs.right_cross, band_radius, profile,
+                          std::move(clipped), limbs.left_background, limbs.right_background,
+                          y0, y1 - 1});
   }
   // Each limb to a fraction of a pixel (RefineEdge), twice: the grazing
   // scatter's strength S is the same along a limb, so the second pass holds
@@ -875,7 +1115,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
         center = around->at_center + around->slope * (band.row - center_row) - region.x;
       }
       points.push_back(
-          {band.row, region.x + RefineEdge(band.profile, background, e0, inward, band.radius,
+          {band.row, region.x + RefineEdge(band.profile,
+                                           inward > 0 ? band.left_background
+                                                      : band.right_background,
+                                           e0, inward, band.radius,
                                            glints_reach_limb && toward_light,
                                            !shadowed_limb || toward_light, scatter, nullptr, blur,
                                            center, lit_from(toward_light, band.radius),
@@ -921,7 +1164,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       if (!line.inlier[i] || (use_band != nullptr && !(*use_band)[i])) continue;
       const BandEdges& band = bands_seen[i];
       EdgeWindow w = MakeEdgeWindow(
-          band.profile, background, inward > 0 ? band.left_cross : band.right_cross, inward,
+          band.profile, inward > 0 ? band.left_background : band.right_background,
+          inward > 0 ? band.left_cross : band.right_cross, inward,
           band.radius, glints_reach_limb && toward_light, lit_from(toward_light, band.radius),
           limb_pad(toward_light), fixed_blur != nullptr ? RampPx(*fixed_blur) : 0.0,
           &band.clipped);
@@ -1045,6 +1289,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (!extend) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
     return fit;
   };
+  ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN());
   right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN());
   // The held S is one number for the whole limb, so its own noise moves every
@@ -1367,12 +1612,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       }
       const double typical = disc.empty() ? 0.0 : Median(disc);
       const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
-      // TODO(issue31): FindShadowOnset (the two models of the shadow's
-      // profile) is to replace this range; on its own it let limbs found on
-      // the stray-lit body's roll-off through (random lab scenes), which
-      // this range refused by chance.
-      const double range = values[values.size() * 95 / 100] - values[values.size() * 5 / 100];
-      const bool flat = range < 0.25 * typical + 6.0 * column_noise;
+      const ShadowOnset onset =
+          FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
+                          options.projection, 6.0 * column_noise);
+      const bool flat = !onset.lit;
       if (seen != nullptr) {
         shadow_level = values[values.size() / 2];
         const double level = shadow_level - background;
