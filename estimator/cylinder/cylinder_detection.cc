@@ -485,73 +485,112 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
 // background each limb stands on.
 struct BandLimbs {
   bool found = false;
-  int left = -1;   // first column of the step at each side
-  int right = -1;
-  double left_cross = 0.0;   // sub-pixel step position
+  double left_cross = 0.0;  // sub-pixel limb position
   double right_cross = 0.0;
-  double left_background = 0.0;   // the side strip's level, each side
+  double left_background = 0.0;  // the side strip's level, each side
   double right_background = 0.0;
 };
 
-// The limbs of one band: from each side strip inward, the first step out of
-// the background. A step is where the difference of the three columns'
-// mean beyond and before a column, D(x), stands `threshold` above zero
-// (either sign: a body brighter or darker than the background), at the
-// first maximum of |D| that follows (a blurred step's derivative peaks at
-// its half-level point; a parabola through the peak places it between
-// pixels). A step, not a level: the background's gradient and vignetting
-// change the level by far less than the threshold over four columns, and a
-// body whose stray light rolls off toward its limb still ends in a step
-// there (the diffuse irradiance falls like cos φ, whose slope in columns
-// steepens to the limb), so the edge is not found part-way down the
-// roll-off where the level first differs from the background's.
+// Sub-pixel position where a band profile crosses `level` between columns
+// a and b (a < b or a > b), by linear interpolation between pixel centres.
+double Crossing(const std::vector<double>& profile, int a, int b, double level) {
+  const int step = b > a ? 1 : -1;
+  for (int x = a; x != b; x += step) {
+    const double p0 = profile[x] - level;
+    const double p1 = profile[x + step] - level;
+    if ((p0 <= 0) != (p1 <= 0)) {
+      const double t = p0 / (p0 - p1);
+      return x + step * t;
+    }
+  }
+  return a;
+}
+
+// The limbs of one band's profile: from each side strip inward, the first
+// three columns of the profile smoothed over kBox columns that stand
+// `threshold` from that side's own background level (up: a lit or grey body
+// on a darker background; down: a dark cloth on a brighter one). Each
+// side's own level: a gradient across the frame puts the two strips apart,
+// and one level for both put one side's strip itself beyond the threshold.
+// The levels are the strips' over all rows (a band's own strip is noisier,
+// and moved the blurred limbs' first estimates by tenths of a pixel).
+// `glints_left` and `glints_right`: the lobe's glints may reach that limb
+// (see below).
 BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double threshold,
-                        int min_separation) {
+                        int min_separation, bool glints_left, bool glints_right,
+                        double left_background, double right_background) {
   BandLimbs b;
   const int w = static_cast<int>(profile.size());
-  // Three columns each side: room for a limb a few pixels from the frame.
-  constexpr int kHalf = 3;
-  if (w < 2 * side + 4 * kHalf) return b;
-  std::vector<double> prefix(w + 1, 0.0);
-  for (int x = 0; x < w; ++x) prefix[x + 1] = prefix[x] + profile[x];
-  auto d = [&](int x) {
-    return (prefix[x + kHalf + 1] - prefix[x + 1] - (prefix[x] - prefix[x - kHalf])) / kHalf;
-  };
-  std::vector<double> strip(profile.begin(), profile.begin() + side);
-  b.left_background = Median(strip);
-  strip.assign(profile.end() - side, profile.end());
-  b.right_background = Median(strip);
-  const int lo = std::max(side, kHalf);
-  const int hi = std::min(w - 1 - side, w - 1 - kHalf);
-  auto place = [&](int from, int step, int* at, double* cross) {
-    for (int x = from; x >= lo && x <= hi; x += step) {
-      if (!(std::fabs(d(x)) > threshold)) continue;
-      const double sign = d(x) > 0 ? 1.0 : -1.0;
-      // The first maximum: a glint just inside the limb toward the light
-      // steps up further and would draw a larger maximum inward.
-      int peak = x;
-      for (int k = 1; k <= 2 * kHalf; ++k) {
-        const int y = x + step * k;
-        if (y < lo || y > hi || !(sign * d(y) > sign * d(peak))) break;
-        peak = y;
-      }
-      *at = x;
-      *cross = peak;
-      if (peak > lo && peak < hi) {
-        const double a = sign * d(peak - 1), c = sign * d(peak), e = sign * d(peak + 1);
-        const double den = a - 2.0 * c + e;
-        if (den < 0.0) *cross = peak + std::clamp(0.5 * (a - e) / den, -0.5, 0.5);
-      }
-      // D(x) differences columns x+1.. and ..x−1: a step between columns
-      // x0−1 and x0 gives a plateau at x0−1 and x0, centred on the step.
-      return true;
+  if (w < 2 * side + 8) return b;
+  // Smoothed over kBox columns, so that a dim limb still stands out of the
+  // noise; the sub-pixel position comes from the unsmoothed level below.
+  constexpr int kBox = 5;
+  std::vector<double> smoothed(w, 0.0);
+  {
+    // A running sum over the box, truncated at the profile's ends.
+    double sum = 0.0;
+    for (int k = 0; k < std::min(kBox / 2, w); ++k) sum += profile[k];
+    for (int x = 0; x < w; ++x) {
+      if (x + kBox / 2 < w) sum += profile[x + kBox / 2];
+      if (x - kBox / 2 - 1 >= 0) sum -= profile[x - kBox / 2 - 1];
+      const int count = std::min(w - 1, x + kBox / 2) - std::max(0, x - kBox / 2) + 1;
+      smoothed[x] = sum / count;
     }
-    return false;
+  }
+  b.left_background = left_background;
+  b.right_background = right_background;
+  auto above = [&](int x, double background) {
+    return x >= 0 && x < w && std::fabs(smoothed[x] - background) > threshold;
   };
-  if (!place(lo, +1, &b.left, &b.left_cross) || !place(hi, -1, &b.right, &b.right_cross)) {
+  int left = -1;
+  for (int x = side; x + 2 < w - side; ++x) {
+    const double bg = b.left_background;
+    if (above(x, bg) && above(x + 1, bg) && above(x + 2, bg)) {
+      left = x;
+      break;
+    }
+  }
+  int right = -1;
+  for (int x = w - 1 - side; x - 2 >= side; --x) {
+    const double bg = b.right_background;
+    if (above(x, bg) && above(x - 1, bg) && above(x - 2, bg)) {
+      right = x;
+      break;
+    }
+  }
+  // A limb found at the first column searched lies in (or beyond) the side
+  // strip taken as background: its position is not measured, and the
+  // band is left out.
+  if (left < 0 || right < 0 || right - left < min_separation || left == side ||
+      right == w - 1 - side) {
     return b;
   }
-  b.found = b.right_cross - b.left_cross >= min_separation && b.left > lo && b.right < hi;
+  // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
+  // step's half-level crossing in place) crosses half-way between the
+  // background and the surface level just inside the limb. The first
+  // column above the threshold has the limb pixel (partly covered) at the
+  // end of its box, two columns on; the first wholly covered pixel is the
+  // third. Its own (unsmoothed) value is the level: any further in may be
+  // the lit surface beyond the terminator of an unlit limb. At the limb
+  // toward the light, where glints may reach it, a third column standing
+  // well above the next three is a glint, and their least is the level: a
+  // glint there (1 px inside the limb at α = 140°) made the half level one
+  // the smoothed profile never crossed, and the limb was put 4.7 px out.
+  auto inside_level = [&](int from, int step, bool glints_may_reach, double background) {
+    const double level = profile[std::clamp(from + 3 * step, 0, w - 1)];
+    if (!glints_may_reach) return level;
+    double least = level;
+    for (int k = 4; k <= 6; ++k) least = std::min(least, profile[std::clamp(from + k * step, 0, w - 1)]);
+    return level > least + kEdgeRise * std::max(least - background, 0.0) ? least : level;
+  };
+  const double left_half =
+      0.5 * (b.left_background + inside_level(left, +1, glints_left, b.left_background));
+  const double right_half =
+      0.5 * (b.right_background + inside_level(right, -1, glints_right, b.right_background));
+  b.left_cross = Crossing(smoothed, std::max(left - 3, 0), std::min(left + 4, w - 1), left_half);
+  b.right_cross =
+      Crossing(smoothed, std::min(right + 3, w - 1), std::max(right - 4, 0), right_half);
+  b.found = true;
   return b;
 }
 
@@ -746,8 +785,8 @@ struct BandEdges {
   // Columns (of the region) where a pixel of the band's rows clipped: the
   // band's mean there is a lower bound, and the edge fits leave it out.
   std::vector<std::uint8_t> clipped;
-  // The background beside each limb: its side strip's level in this band
-  // (a gradient or vignetting puts the two apart).
+  // The background beside each limb: its side strip's level (a gradient
+  // across the frame puts the two apart).
   double left_background = 0.0;
   double right_background = 0.0;
   int first = 0;  // the band's rows, inclusive
@@ -760,13 +799,23 @@ struct BandEdges {
 // hide a faint step, not invent one further out, so only an outward move is
 // taken. The slope is that of the limb whose bands agree best (more of them
 // on its line; then the smaller scatter).
-// Returns which limbs moved ({left, right}).
-std::pair<bool, bool> ReseedFaintLimbs(const Image& luminance, const PixelRegion& region,
-                                       double center_row, int side, double noise,
-                                       const CylinderDetectionOptions& options,
-                                       std::vector<BandEdges>* bands) {
+// Returns which limbs moved, and the lines through the bands' own edges
+// (image columns): an edge the bands see where all rows see the body start
+// further out may still be the terminator of a body as dark as the
+// background beyond it, whose foot all rows found; the dark-limb inference
+// starts from the bands' edge.
+struct Reseeded {
+  bool left = false;
+  bool right = false;
+  Line left_bands;
+  Line right_bands;
+};
+Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, double center_row,
+                          int side, double noise, const CylinderDetectionOptions& options,
+                          std::vector<BandEdges>* bands) {
   constexpr double kReseedPx = 2.0;
-  if (bands->size() < 3) return {false, false};
+  Reseeded moved;
+  if (bands->size() < 3) return moved;
   std::vector<LimbPoint> left_first;
   std::vector<LimbPoint> right_first;
   for (const BandEdges& b : *bands) {
@@ -794,10 +843,10 @@ std::pair<bool, bool> ReseedFaintLimbs(const Image& luminance, const PixelRegion
       if (k % stride == 0) rows.push_back(y);
     }
   }
-  if (rows.size() < 3) return {false, false};
+  if (rows.size() < 3) return moved;
   const BandLimbs all = FindShearedLimbs(luminance, region, rows, slope, center_row, side, noise,
                                          static_cast<int>(2 * options.min_radius_px));
-  if (!all.found) return {false, false};
+  if (!all.found) return moved;
   const bool left_out = all.left_cross < left.at_center - kReseedPx;
   const bool right_out = all.right_cross > right.at_center + kReseedPx;
   for (BandEdges& b : *bands) {
@@ -806,7 +855,13 @@ std::pair<bool, bool> ReseedFaintLimbs(const Image& luminance, const PixelRegion
     if (right_out) b.right_cross = all.right_cross + along;
     b.radius = 0.5 * (b.right_cross - b.left_cross);
   }
-  return {left_out, right_out};
+  moved.left = left_out;
+  moved.right = right_out;
+  moved.left_bands = left;
+  moved.right_bands = right;
+  moved.left_bands.at_center += region.x;
+  moved.right_bands.at_center += region.x;
+  return moved;
 }
 
 // The first and last columns of [from, to] more than half-way from the
@@ -1009,6 +1064,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   samples = left_samples;
   samples.insert(samples.end(), right_samples.begin(), right_samples.end());
   const double background = Median(samples);
+  const double left_background = Median(left_samples);
+  const double right_background = Median(right_samples);
   for (double& s : samples) s = std::fabs(s - background);
   const double noise = std::max(1.4826 * Median(samples), 1e-6);
 
@@ -1064,12 +1121,15 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       p /= band_rows;
       peak = std::max(peak, p);
     }
-    // A step's noise: the difference of two three-column means of the band.
+    // A band mean's noise, over the smoothing box's five columns.
+    constexpr int kBox = 5;
     const double threshold =
-        std::max(options.edge_sigmas * noise * std::sqrt(2.0 / (3.0 * band_rows)),
+        std::max(options.edge_sigmas * noise / std::sqrt(band_rows * kBox),
                  0.005 * (peak - background));
-    const BandLimbs limbs =
-        FindBandLimbs(profile, side, threshold, static_cast<int>(2 * options.min_radius_px));
+    const BandLimbs limbs = FindBandLimbs(
+        profile, side, threshold, static_cast<int>(2 * options.min_radius_px),
+        glints_reach_limb && light < 0, glints_reach_limb && light > 0, left_background,
+        right_background);
     if (!limbs.found) continue;
     const double row = 0.5 * (y0 + y1 - 1);
     const double band_radius = 0.5 * (limbs.right_cross - limbs.left_cross);
@@ -1289,7 +1349,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (!extend) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
     return fit;
   };
-  ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);
+  const Reseeded reseeded =
+      ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN());
   right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN());
   // The held S is one number for the whole limb, so its own noise moves every
@@ -1510,16 +1571,25 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // Refine the ends row by row: a row belongs to the cylinder when the
   // surface just inside both limbs (offsets 0.75–0.95) stands above the
   // background; bands that straddle an end would otherwise count whole.
+  // The row's own background is its side strips' median: a mount or an
+  // end beyond the cylinder fills whole rows at a level of its own, which
+  // the whole photograph's background would count as surface.
   auto row_on_cylinder = [&](int y) {
     double sum = 0.0;
     int n = 0;
+    std::vector<double> strips;
     for (int x = region.x; x < region.x + region.width; ++x) {
+      if (x < region.x + side || x >= region.x + region.width - side) {
+        strips.push_back(luminance.At(x, y));
+      }
       const double o = std::fabs(g.NormalisedOffset(x, y));
       if (o < 0.75 || o > 0.95) continue;
       sum += luminance.At(x, y);
       ++n;
     }
-    return n > 0 && std::fabs(sum / n - background) > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
+    const double row_background = strips.empty() ? background : Median(strips);
+    return n > 0 &&
+           std::fabs(sum / n - row_background) > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
   };
   int top = band_first[first];
   while (top < band_last[first] && !(row_on_cylinder(top) && row_on_cylinder(top + 1))) ++top;
@@ -1760,7 +1830,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       // The edge away from the light may be a soft terminator: the tilt is
       // the lit limb's alone.
       const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
-      const Line& other = options.phase_angle_rad > 0 ? final_left : final_right;
+      const bool unlit_moved = options.phase_angle_rad > 0 ? reseeded.left : reseeded.right;
+      const Line& other =
+          unlit_moved ? (options.phase_angle_rad > 0 ? reseeded.left_bands : reseeded.right_bands)
+                      : (options.phase_angle_rad > 0 ? final_left : final_right);
       CylinderGeometry edges = g;
       edges.axis_angle_rad = std::atan(-lit.slope);
       edges.center_x_px = 0.5 * (lit.at_center + other.at_center);

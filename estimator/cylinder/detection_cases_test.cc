@@ -381,11 +381,7 @@ TEST(DarkLimbTest, InferredUnderASawtoothLobeWithClippedGlints) {
 
 // A larger photograph (1600×1200, R = 640 px, ≈ 2 s to render): the faint
 // grazing-scatter step at the terminator, left out, would move it by pixels.
-// DISABLED (issue 31, open): since the limbs' first estimates are a step's
-// derivative peak, the terminator edge this inference starts from is placed
-// where the lit-surface model leaves a reduced chi-square of 150, and the
-// photograph is refused; it was inferred within 2 px before.
-TEST(DarkLimbTest, DISABLED_InferredOnALargerPhotograph) {
+TEST(DarkLimbTest, InferredOnALargerPhotograph) {
   RenderScene scene = DarkLimbScene(110.0);
   scene.width_px = 1600;
   scene.height_px = 1200;

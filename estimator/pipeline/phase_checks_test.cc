@@ -172,11 +172,7 @@ TEST(PhaseChecksTest, AnOuterCausticAtTheLimbKeepsTheSeenLimbs) {
 // inside the lit limb (R = 256 px). The limb fit took the peak for part of
 // the edge (2.2 px out) and the spacing came out 3.4° short at 7.7 stated
 // errors; now the split is reported unresolved, with the reason.
-// DISABLED (issue 31, open): with the limbs' first estimates from a step's
-// derivative peak this photograph is refused at the lobe check (the
-// brightest lobe 26° from α/2) instead of answered with the split
-// unresolved.
-TEST(PhaseChecksTest, DISABLED_ACausticAtTheLimbLeavesTheSplitUnresolved) {
+TEST(PhaseChecksTest, ACausticAtTheLimbLeavesTheSplitUnresolved) {
   RenderScene scene;
   scene.width_px = 640;
   scene.height_px = 480;
