@@ -799,6 +799,86 @@ struct BandEdges {
 // hide a faint step, not invent one further out, so only an outward move is
 // taken. The slope is that of the limb whose bands agree best (more of them
 // on its line; then the smaller scatter).
+// The share of the columns between the limbs that must show the body.
+constexpr double kBodyShare = 0.7;
+
+// How many columns between two edges show a body: a mean over all rows
+// that stands apart from the background, or pixels that vary down the
+// column (over the bands' rows) beyond the background's noise. A body in
+// stray light as bright as the background still shows the weave's texture
+// down every column (the threads cross it at their own period); the
+// background between isolated glints shows noise alone. Over n rows a
+// standard deviation is known to 1/√(2n) of itself: kTextureSigmas of that
+// above the noise.
+// Or, where the body is as bright and as smooth as the background over
+// much of its width (a smooth sample in stray light), both edges must step
+// into a body: the mean over all rows 3-10 px inside each differs from the
+// level 3-10 px outside it. Just inside the outermost line of glints lies
+// background again.
+struct BodyCoverage {
+  int on = 0;
+  int total = 0;
+  bool limbs_step_into_body = false;
+};
+BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
+                       const std::vector<double>& mean_profile, double background, double noise,
+                       int mean_rows, double edge_sigmas, const std::vector<BandEdges>& bands,
+                       double left_column, double right_column) {
+  constexpr double kTextureSigmas = 6.0;
+  constexpr int kRows = 256;
+  std::vector<int> rows;
+  int total_rows = 0;
+  for (const BandEdges& b : bands) total_rows += b.last - b.first + 1;
+  const int stride = std::max(1, total_rows / kRows);
+  int k = 0;
+  for (const BandEdges& b : bands) {
+    for (int y = b.first; y <= b.last; ++y, ++k) {
+      if (k % stride == 0) rows.push_back(y);
+    }
+  }
+  const double mean_threshold =
+      edge_sigmas * noise / std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
+  const double n = static_cast<double>(rows.size());
+  const double texture_threshold =
+      n >= 8 ? noise * (1.0 + kTextureSigmas / std::sqrt(2.0 * n))
+             : std::numeric_limits<double>::infinity();
+  BodyCoverage c;
+  for (int x = static_cast<int>(std::ceil(left_column)) + 2;
+       x <= static_cast<int>(std::floor(right_column)) - 2; ++x) {
+    if (x < region.x || x >= region.x + region.width) continue;
+    ++c.total;
+    if (std::fabs(mean_profile[x - region.x] - background) > mean_threshold) {
+      ++c.on;
+      continue;
+    }
+    double sum = 0.0;
+    double sum_sq = 0.0;
+    for (int y : rows) {
+      const double v = luminance.At(x, y);
+      sum += v;
+      sum_sq += v * v;
+    }
+    const double mean = sum / std::max(n, 1.0);
+    const double sd = std::sqrt(std::max(0.0, sum_sq / std::max(n, 1.0) - mean * mean));
+    c.on += sd > texture_threshold;
+  }
+  auto steps_in = [&](double edge, int inward) {
+    double inside = 0.0;
+    double outside = 0.0;
+    for (int d = 3; d <= 10; ++d) {
+      const int in = static_cast<int>(std::lround(edge + inward * d)) - region.x;
+      const int out = static_cast<int>(std::lround(edge - inward * d)) - region.x;
+      if (std::min(in, out) < 0 || std::max(in, out) >= region.width) return false;
+      inside += mean_profile[in] / 8.0;
+      outside += mean_profile[out] / 8.0;
+    }
+    // Each an 8-column mean: its noise is the column's over √8.
+    return std::fabs(inside - outside) > mean_threshold;
+  };
+  c.limbs_step_into_body = steps_in(left_column, +1) && steps_in(right_column, -1);
+  return c;
+}
+
 // Returns which limbs moved, and the lines through the bands' own edges
 // (image columns): an edge the bands see where all rows see the body start
 // further out may still be the terminator of a body as dark as the
@@ -1538,22 +1618,15 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // The surface between the two edges must be continuous: edges found on
   // isolated glints (a body as dark as the background, no lit terminator)
   // would place a cylinder that is not there.
-  {
-    const double mean_threshold = options.edge_sigmas * noise / std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
-    int on = 0;
-    int total = 0;
-    for (int x = static_cast<int>(std::ceil(left.at_center)) + 2;
-         x <= static_cast<int>(std::floor(right.at_center)) - 2; ++x) {
-      if (x < region.x || x >= region.x + region.width) continue;
-      ++total;
-      on += std::fabs(mean_profile[x - region.x] - background) > mean_threshold;
-    }
-    if (total == 0 || on < 0.7 * total) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "no cylinder found: only ", on, " of ", total, " columns between the two "
-          "edges differ from the background; a body as dark as the background "
-          "shows only its glints (light it, or darken the background)"));
-    }
+  if (const BodyCoverage body = CoverBody(luminance, region, mean_profile, background, noise,
+                                          mean_rows, options.edge_sigmas, bands_seen,
+                                          left.at_center, right.at_center);
+      body.total == 0 || (body.on < kBodyShare * body.total && !body.limbs_step_into_body)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no cylinder found: only ", body.on, " of ", body.total, " columns between the two "
+        "edges differ from the background in level or texture; a body as dark and as "
+        "smooth as the background shows only its glints (light it, or darken the "
+        "background)"));
   }
   // Usable rows: from the first to the last band whose limbs agree with the
   // fitted lines (ends of the cylinder and the mount are excluded).
