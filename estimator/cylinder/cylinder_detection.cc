@@ -1080,6 +1080,39 @@ ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
   return result;
 }
 
+// Whether direct light begins where the phase angle puts the terminator in
+// cylinder `c`: FindShadowOnset over the columns from the unlit limb to
+// kBeyondRad past the terminator finds an onset within kAtRad of it (in
+// azimuth; plus the tilt's smear of the all-rows mean). Stray light alone,
+// or a surface lit all through, fits without one.
+bool TerminatorSeen(const std::vector<double>& mean_profile, const PixelRegion& region,
+                    const CylinderGeometry& c, const CylinderDetectionOptions& options,
+                    double noise, int mean_rows) {
+  constexpr double kBeyondRad = 10.0 * M_PI / 180.0;
+  constexpr double kAtRad = 5.0 * M_PI / 180.0;
+  const int side = options.phase_angle_rad > 0 ? 1 : -1;
+  const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
+  auto column = [&](double phi) {
+    return c.center_x_px +
+           OffsetFromAzimuth(std::clamp(phi, -M_PI / 2.0, M_PI / 2.0), options.projection) * half;
+  };
+  const double x_dark = c.center_x_px - side * half;
+  const double x_beyond = column(phi_t + side * kBeyondRad);
+  const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_beyond) + smear)) - region.x;
+  const int hi = static_cast<int>(std::floor(std::max(x_dark, x_beyond) - smear)) - region.x;
+  if (hi - lo < 8) return false;
+  const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
+  const ShadowOnset onset =
+      FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
+                      options.projection, 6.0 * column_noise);
+  if (!onset.lit) return false;
+  const double x_term = column(phi_t);
+  const double tolerance = std::fabs(column(phi_t + side * kAtRad) - x_term) + smear;
+  return std::fabs(onset.onset_column + region.x - x_term) <= tolerance;
+}
+
 absl::Status CylinderDetectionOptions::Validate() const {
   if (num_bands < 3) return absl::InvalidArgumentError("num_bands must be >= 3");
   if (!(background_fraction > 0 && background_fraction < 0.25)) {
@@ -1884,13 +1917,19 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     // slowly than the lit limb is a terminator: at α = −16° (640×480, a
     // Lambertian body as dark as the background) it stood 12 px inside the
     // limb, which put the lobe 1° off and called a sawtooth a sinusoid.
+    // Unless the terminator is seen where the phase angle puts it inside
+    // this cylinder: direct light beginning there (TerminatorSeen) makes the
+    // edge beyond the body in shadow its limb, however soft that limb's
+    // rise (a stray-lit body darkens toward its limb as the surface turns
+    // from the diffuse light).
     bool soft_unlit = false;
     if (std::fabs(options.phase_angle_rad) >= kShadowedLimbRad) {
       const int light_side = options.phase_angle_rad > 0 ? 1 : -1;
       const double lit_rise = edge_rise_px(g, light_side);
       const double unlit_rise = edge_rise_px(g, -light_side);
-      soft_unlit = std::isfinite(unlit_rise) && unlit_rise > kSoftEdgePx +
-                       (std::isfinite(lit_rise) ? lit_rise : 0.0);
+      soft_unlit = std::isfinite(unlit_rise) &&
+                   unlit_rise > kSoftEdgePx + (std::isfinite(lit_rise) ? lit_rise : 0.0) &&
+                   !TerminatorSeen(mean_profile, region, g, options, noise, mean_rows);
     }
     std::string why_not_inferred;
     // A lobe off α/2 alone does not make the unlit edge a terminator when
