@@ -489,6 +489,10 @@ struct BandLimbs {
   double right_cross = 0.0;
   double left_background = 0.0;  // the side strip's level, each side
   double right_background = 0.0;
+  // All rows (FindShearedLimbs): the first column from each side where a
+  // step fired; the limb lies at or beyond it.
+  double left_fired = std::numeric_limits<double>::quiet_NaN();
+  double right_fired = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Sub-pixel position where a band profile crosses `level` between columns
@@ -745,30 +749,55 @@ BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
   strips.insert(strips.end(), profile.end() - side, profile.end());
   const double floor = kMinStepShare * std::fabs(Median(middle) - Median(strips));
   BandLimbs limbs;
-  auto first_step = [&](int step) {
+  auto fires = [&](int x, int h, int step) {
+    double sigma = 0.0;
+    const double d = ExtrapolatedStep(profile, x, h, step, &sigma);
+    return std::fabs(d) > std::max(kShearedSigmas * sigma * column_noise, floor);
+  };
+  // The limb in the window of a step found at x over h columns, when the
+  // profile breaks there with a jump (a limb is a jump out of the
+  // background, however small: where the profile only bends, as the
+  // shading of a body in shadow at the background's level does, NaN).
+  auto limb_at = [&](int x, int h, int step) {
+    const int a = step > 0 ? x - h : x - 2 * h;
+    const int b = step > 0 ? x + 2 * h : x + h;
+    double jump = 0.0;
+    double factor = 1.0;
+    const double e = BreakPoint(profile, std::max(a, 0), std::min(b, region.width - 1), step,
+                                &jump, &factor);
+    return std::fabs(jump) > std::max(kShearedSigmas * factor * column_noise, floor)
+               ? e
+               : std::numeric_limits<double>::quiet_NaN();
+  };
+  // From each side inward, the first column where a step fires at some
+  // width. A wide step fires before the limb it holds (its h columns reach
+  // over it): the narrower widths are then tried over those columns, so
+  // that the window the limb is placed in is the narrowest that sees it
+  // (texture and glints inside the body bend a wide window's break).
+  auto first_step = [&](int step, double* fired) {
     for (int k = side; k < region.width - side; ++k) {
       const int x = step > 0 ? k : region.width - 1 - k;
       for (int h : {4, 8, 16}) {
-        double sigma = 0.0;
-        const double d = ExtrapolatedStep(profile, x, h, step, &sigma);
-        if (!(std::fabs(d) > std::max(kShearedSigmas * sigma * column_noise, floor))) continue;
-        const int a = step > 0 ? x - h : x - 2 * h;
-        const int b = step > 0 ? x + 2 * h : x + h;
-        // A limb is a jump out of the background, however small: where the
-        // profile only bends (the shading of a body in shadow at the
-        // background's level) the search goes on.
-        double jump = 0.0;
-        double factor = 1.0;
-        const double e = BreakPoint(profile, std::max(a, 0), std::min(b, region.width - 1), step,
-                                    &jump, &factor);
-        if (std::fabs(jump) > std::max(kShearedSigmas * factor * column_noise, floor)) return e;
+        if (!fires(x, h, step)) continue;
+        *fired = x;
+        for (int fine : {4, 8}) {
+          if (fine >= h) break;
+          for (int j = 0; j <= h; ++j) {
+            if (!fires(x + step * j, fine, step)) continue;
+            const double e = limb_at(x + step * j, fine, step);
+            if (std::isfinite(e)) return e;
+            break;
+          }
+        }
+        const double e = limb_at(x, h, step);
+        if (std::isfinite(e)) return e;
         break;
       }
     }
     return std::numeric_limits<double>::quiet_NaN();
   };
-  limbs.left_cross = first_step(+1);
-  limbs.right_cross = first_step(-1);
+  limbs.left_cross = first_step(+1, &limbs.left_fired);
+  limbs.right_cross = first_step(-1, &limbs.right_fired);
   limbs.found = std::isfinite(limbs.left_cross) && std::isfinite(limbs.right_cross) &&
                 limbs.right_cross - limbs.left_cross >= min_separation;
   return limbs;
@@ -793,12 +822,6 @@ struct BandEdges {
   int last = 0;
 };
 
-// Where all rows see a limb more than kReseedPx further out than the line
-// through the bands' own first estimates, the bands' estimates of that limb
-// move onto the all-rows limb (along the same slope): a band's noise can
-// hide a faint step, not invent one further out, so only an outward move is
-// taken. The slope is that of the limb whose bands agree best (more of them
-// on its line; then the smaller scatter).
 // The share of the columns between the limbs that must show the body.
 constexpr double kBodyShare = 0.7;
 
@@ -879,9 +902,20 @@ BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
   return c;
 }
 
+// Where all rows place a limb more than kReseedPx from the line through the
+// bands' own first estimates, the bands' estimates of that limb move onto
+// the all-rows limb (along the same slope). Outward: a band's noise can
+// hide a faint step (a stray-lit body that rises slowly from its limb).
+// Inward: the bands find a limb where the level first departs from the
+// side strip's, and a background that vignetting or a gradient carries
+// away from that level departs without a step; the all-rows search, whose
+// steps are measured against the background's own trend (ExtrapolatedStep),
+// passed over that column without finding one. The slope is that of the
+// limb whose bands agree best (more of them on its line; then the smaller
+// scatter).
 // Returns which limbs moved, and the lines through the bands' own edges
 // (image columns): an edge the bands see where all rows see the body start
-// further out may still be the terminator of a body as dark as the
+// elsewhere may still be the terminator of a body as dark as the
 // background beyond it, whose foot all rows found; the dark-limb inference
 // starts from the bands' edge.
 struct Reseeded {
@@ -893,7 +927,10 @@ struct Reseeded {
 Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, double center_row,
                           int side, double noise, const CylinderDetectionOptions& options,
                           std::vector<BandEdges>* bands) {
-  constexpr double kReseedPx = 2.0;
+  // The all-rows break lies on the pixel grid (BreakPoint), and the body's
+  // texture bends its line: it agrees with the bands' limbs to about 2 px
+  // where both see one, so a move takes more.
+  constexpr double kReseedPx = 3.0;
   Reseeded moved;
   if (bands->size() < 3) return moved;
   std::vector<LimbPoint> left_first;
@@ -927,8 +964,13 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   const BandLimbs all = FindShearedLimbs(luminance, region, rows, slope, center_row, side, noise,
                                          static_cast<int>(2 * options.min_radius_px));
   if (!all.found) return moved;
-  const bool left_out = all.left_cross < left.at_center - kReseedPx;
-  const bool right_out = all.right_cross > right.at_center + kReseedPx;
+  // Inward only where no step fired within kReseedPx of the bands' line (a
+  // step that fired there but broke further in is the limb's, its break
+  // drawn in by glints or texture beside it).
+  const bool left_out = all.left_cross < left.at_center - kReseedPx ||
+                        all.left_fired > left.at_center + kReseedPx;
+  const bool right_out = all.right_cross > right.at_center + kReseedPx ||
+                         all.right_fired < right.at_center - kReseedPx;
   for (BandEdges& b : *bands) {
     const double along = slope * (b.row - center_row);
     if (left_out) b.left_cross = all.left_cross + along;
