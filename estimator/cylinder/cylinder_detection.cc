@@ -1171,6 +1171,38 @@ namespace {
 
 constexpr char kTooFewLimbs[] = "no cylinder found: only ";
 
+// Whether a side strip holds a step: the mean over the rows (every
+// `row_step`-th) of each strip column, and a difference of three columns'
+// means beside three others beyond kStripStepSigmas of its noise. A limb
+// there (a cylinder that fills the frame) makes the body beyond it the
+// strip's level, and the body then departs from it only at its terminator.
+bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side, int row_step,
+                     double noise) {
+  constexpr double kStripStepSigmas = 8.0;
+  if (side < 8) return false;
+  int rows = 0;
+  std::vector<double> left(side, 0.0);
+  std::vector<double> right(side, 0.0);
+  for (int y = region.y; y < region.y + region.height; y += row_step, ++rows) {
+    for (int i = 0; i < side; ++i) {
+      left[i] += luminance.At(region.x + i, y);
+      right[i] += luminance.At(region.x + region.width - 1 - i, y);
+    }
+  }
+  if (rows == 0) return false;
+  const double threshold = kStripStepSigmas * noise * std::sqrt(2.0 / (3.0 * rows));
+  for (const std::vector<double>* strip : {&left, &right}) {
+    const std::vector<double>& p = *strip;
+    for (int x = 3; x + 3 < side; ++x) {
+      const double d = (p[x + 1] + p[x + 2] + p[x + 3] - p[x - 1] - p[x - 2] - p[x - 3]) / (3.0 * rows);
+      if (std::fabs(d) > threshold) return true;
+    }
+  }
+  return false;
+}
+
+
+
 // DetectCylinder with `side_fraction` of the region's width at each side
 // taken as background. With `shadow_is_limb`, the edge away from the light is
 // known to be a limb (a first pass saw both): its lens blur proposal counts
@@ -1234,6 +1266,11 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // The limb away from the light lies in the cylinder's own shadow.
   const bool shadowed_limb =
       light != 0 && std::fabs(options.phase_angle_rad) >= kShadowedLimbRad;
+  if (StripHoldsAStep(luminance, region, side, row_step, noise)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        kTooFewLimbs, "the side strips (", side, " px) hold no plain background: a limb "
+        "lies in one"));
+  }
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
