@@ -1171,30 +1171,31 @@ namespace {
 
 constexpr char kTooFewLimbs[] = "no cylinder found: only ";
 
-// Whether a side strip holds a step: the mean over the rows (every
-// `row_step`-th) of each strip column, and a difference of three columns'
-// means beside three others beyond kStripStepSigmas of its noise. A limb
-// there (a cylinder that fills the frame) makes the body beyond it the
-// strip's level, and the body then departs from it only at its terminator.
-bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side, int row_step,
-                     double noise) {
+// Whether a side strip holds a step over the given rows: the mean of each
+// strip column over them, and a difference of three columns' means beside
+// three others beyond kStripStepSigmas of its noise. A limb there (a
+// cylinder that fills the frame) makes the body beyond it the strip's
+// level, and the body then departs from it only at its terminator. (Over
+// the bands' rows only: a mount's edges may stand in the strips beside the
+// cylinder's ends.)
+bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side,
+                     const std::vector<int>& rows, double noise) {
   constexpr double kStripStepSigmas = 8.0;
-  if (side < 8) return false;
-  int rows = 0;
+  if (side < 8 || rows.empty()) return false;
   std::vector<double> left(side, 0.0);
   std::vector<double> right(side, 0.0);
-  for (int y = region.y; y < region.y + region.height; y += row_step, ++rows) {
+  for (int y : rows) {
     for (int i = 0; i < side; ++i) {
       left[i] += luminance.At(region.x + i, y);
       right[i] += luminance.At(region.x + region.width - 1 - i, y);
     }
   }
-  if (rows == 0) return false;
-  const double threshold = kStripStepSigmas * noise * std::sqrt(2.0 / (3.0 * rows));
+  const double n = static_cast<double>(rows.size());
+  const double threshold = kStripStepSigmas * noise * std::sqrt(2.0 / (3.0 * n));
   for (const std::vector<double>* strip : {&left, &right}) {
     const std::vector<double>& p = *strip;
     for (int x = 3; x + 3 < side; ++x) {
-      const double d = (p[x + 1] + p[x + 2] + p[x + 3] - p[x - 1] - p[x - 2] - p[x - 3]) / (3.0 * rows);
+      const double d = (p[x + 1] + p[x + 2] + p[x + 3] - p[x - 1] - p[x - 2] - p[x - 3]) / (3.0 * n);
       if (std::fabs(d) > threshold) return true;
     }
   }
@@ -1266,11 +1267,6 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // The limb away from the light lies in the cylinder's own shadow.
   const bool shadowed_limb =
       light != 0 && std::fabs(options.phase_angle_rad) >= kShadowedLimbRad;
-  if (StripHoldsAStep(luminance, region, side, row_step, noise)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        kTooFewLimbs, "the side strips (", side, " px) hold no plain background: a limb "
-        "lies in one"));
-  }
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
@@ -1541,6 +1537,25 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (!extend) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
     return fit;
   };
+  {
+    // At most kRows of the bands' rows, evenly spread.
+    constexpr int kRows = 512;
+    std::vector<int> rows;
+    int total = 0;
+    for (const BandEdges& b : bands_seen) total += b.last - b.first + 1;
+    const int stride = std::max(1, total / kRows);
+    int k = 0;
+    for (const BandEdges& b : bands_seen) {
+      for (int y = b.first; y <= b.last; ++y, ++k) {
+        if (k % stride == 0) rows.push_back(y);
+      }
+    }
+    if (StripHoldsAStep(luminance, region, side, rows, noise)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          kTooFewLimbs, "part of the side strips (", side,
+          " px) is plain background: a limb lies in one"));
+    }
+  }
   const Reseeded reseeded =
       ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN());
