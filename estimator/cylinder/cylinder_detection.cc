@@ -105,22 +105,6 @@ Line FitLimbLine(const std::vector<LimbPoint>& points, double center_row) {
   return line;
 }
 
-// Sub-pixel position where a band profile crosses `level` between columns
-// a and b (a < b or a > b), by linear interpolation between pixel centres.
-double Crossing(const std::vector<double>& profile, int a, int b,
-                double level) {
-  const int step = b > a ? 1 : -1;
-  for (int x = a; x != b; x += step) {
-    const double p0 = profile[x] - level;
-    const double p1 = profile[x + step] - level;
-    if ((p0 <= 0) != (p1 <= 0)) {
-      const double t = p0 / (p0 - p1);
-      return x + step * t;
-    }
-  }
-  return a;
-}
-
 // At the limb toward the light, a rise inward of this share of the
 // surface's level above the background is a glint (see RefineEdge); a band
 // mean's noise and the cloth's texture rise by a few per cent.
@@ -497,6 +481,511 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   return best_e;
 }
 
+// One band's first limb estimates (columns of the band's profile), and the
+// background each limb stands on.
+struct BandLimbs {
+  bool found = false;
+  double left_cross = 0.0;  // sub-pixel limb position
+  double right_cross = 0.0;
+  double left_background = 0.0;  // the side strip's level, each side
+  double right_background = 0.0;
+  // All rows (FindShearedLimbs): the first column from each side where a
+  // step fired; the limb lies at or beyond it.
+  double left_fired = std::numeric_limits<double>::quiet_NaN();
+  double right_fired = std::numeric_limits<double>::quiet_NaN();
+};
+
+// Sub-pixel position where a band profile crosses `level` between columns
+// a and b (a < b or a > b), by linear interpolation between pixel centres.
+double Crossing(const std::vector<double>& profile, int a, int b, double level) {
+  const int step = b > a ? 1 : -1;
+  for (int x = a; x != b; x += step) {
+    const double p0 = profile[x] - level;
+    const double p1 = profile[x + step] - level;
+    if ((p0 <= 0) != (p1 <= 0)) {
+      const double t = p0 / (p0 - p1);
+      return x + step * t;
+    }
+  }
+  return a;
+}
+
+// The limbs of one band's profile: from each side strip inward, the first
+// three columns of the profile smoothed over kBox columns that stand
+// `threshold` from that side's own background level (up: a lit or grey body
+// on a darker background; down: a dark cloth on a brighter one). Each
+// side's own level: a gradient across the frame puts the two strips apart,
+// and one level for both put one side's strip itself beyond the threshold.
+// The levels are the strips' over all rows (a band's own strip is noisier,
+// and moved the blurred limbs' first estimates by tenths of a pixel).
+// `glints_left` and `glints_right`: the lobe's glints may reach that limb
+// (see below).
+BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double threshold,
+                        int min_separation, bool glints_left, bool glints_right,
+                        double left_background, double right_background) {
+  BandLimbs b;
+  const int w = static_cast<int>(profile.size());
+  if (w < 2 * side + 8) return b;
+  // Smoothed over kBox columns, so that a dim limb still stands out of the
+  // noise; the sub-pixel position comes from the unsmoothed level below.
+  constexpr int kBox = 5;
+  std::vector<double> smoothed(w, 0.0);
+  {
+    // A running sum over the box, truncated at the profile's ends.
+    double sum = 0.0;
+    for (int k = 0; k < std::min(kBox / 2, w); ++k) sum += profile[k];
+    for (int x = 0; x < w; ++x) {
+      if (x + kBox / 2 < w) sum += profile[x + kBox / 2];
+      if (x - kBox / 2 - 1 >= 0) sum -= profile[x - kBox / 2 - 1];
+      const int count = std::min(w - 1, x + kBox / 2) - std::max(0, x - kBox / 2) + 1;
+      smoothed[x] = sum / count;
+    }
+  }
+  b.left_background = left_background;
+  b.right_background = right_background;
+  auto above = [&](int x, double background) {
+    return x >= 0 && x < w && std::fabs(smoothed[x] - background) > threshold;
+  };
+  int left = -1;
+  for (int x = side; x + 2 < w - side; ++x) {
+    const double bg = b.left_background;
+    if (above(x, bg) && above(x + 1, bg) && above(x + 2, bg)) {
+      left = x;
+      break;
+    }
+  }
+  int right = -1;
+  for (int x = w - 1 - side; x - 2 >= side; --x) {
+    const double bg = b.right_background;
+    if (above(x, bg) && above(x - 1, bg) && above(x - 2, bg)) {
+      right = x;
+      break;
+    }
+  }
+  // A limb found at the first column searched lies in (or beyond) the side
+  // strip taken as background: its position is not measured, and the
+  // band is left out.
+  if (left < 0 || right < 0 || right - left < min_separation || left == side ||
+      right == w - 1 - side) {
+    return b;
+  }
+  // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
+  // step's half-level crossing in place) crosses half-way between the
+  // background and the surface level just inside the limb. The first
+  // column above the threshold has the limb pixel (partly covered) at the
+  // end of its box, two columns on; the first wholly covered pixel is the
+  // third. Its own (unsmoothed) value is the level: any further in may be
+  // the lit surface beyond the terminator of an unlit limb. At the limb
+  // toward the light, where glints may reach it, a third column standing
+  // well above the next three is a glint, and their least is the level: a
+  // glint there (1 px inside the limb at α = 140°) made the half level one
+  // the smoothed profile never crossed, and the limb was put 4.7 px out.
+  auto inside_level = [&](int from, int step, bool glints_may_reach, double background) {
+    const double level = profile[std::clamp(from + 3 * step, 0, w - 1)];
+    if (!glints_may_reach) return level;
+    double least = level;
+    for (int k = 4; k <= 6; ++k) least = std::min(least, profile[std::clamp(from + k * step, 0, w - 1)]);
+    return level > least + kEdgeRise * std::max(least - background, 0.0) ? least : level;
+  };
+  const double left_half =
+      0.5 * (b.left_background + inside_level(left, +1, glints_left, b.left_background));
+  const double right_half =
+      0.5 * (b.right_background + inside_level(right, -1, glints_right, b.right_background));
+  b.left_cross = Crossing(smoothed, std::max(left - 3, 0), std::min(left + 4, w - 1), left_half);
+  b.right_cross =
+      Crossing(smoothed, std::min(right + 3, w - 1), std::max(right - 4, 0), right_half);
+  b.found = true;
+  return b;
+}
+
+// The step at column x over h columns, toward `step` (+1: the body at
+// larger columns): the mean of profile[x+1 .. x+h] less the least-squares
+// line through the 2h columns before them, carried on to their middle.
+// NaN when the windows leave the profile. `sigma` is the step's standard
+// error in units of one column's noise.
+double ExtrapolatedStep(const std::vector<double>& profile, int x, int h, int step,
+                        double* sigma) {
+  const int n = static_cast<int>(profile.size());
+  const int far = x - step * 2 * h;
+  const int near = x + step * h;
+  if (std::min(far, near) < 0 || std::max(far, near) >= n) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  // Positions t = 1..2h counted from the far end toward x; the beyond
+  // window's middle at t = 2h + (h + 1)/2.
+  double st = 0, sy = 0, stt = 0, sty = 0;
+  for (int t = 1; t <= 2 * h; ++t) {
+    const double y = profile[far + step * (t - 1)];
+    st += t;
+    sy += y;
+    stt += double(t) * t;
+    sty += t * y;
+  }
+  const double m = 2.0 * h;
+  const double tbar = st / m;
+  const double sxx = stt - st * st / m;
+  const double slope = (sty - st * sy / m) / sxx;
+  const double at = 2.0 * h + 0.5 * (h + 1);
+  const double predicted = sy / m + slope * (at - tbar);
+  double beyond = 0.0;
+  for (int k = 1; k <= h; ++k) beyond += profile[x + step * k];
+  beyond /= h;
+  // Var(prediction) = σ²(1/m + (at − t̄)²/Sxx) (the beyond window's own
+  // columns spread about its middle cancel in its mean), plus σ²/h.
+  *sigma = std::sqrt(1.0 / m + (at - tbar) * (at - tbar) / sxx + 1.0 / h);
+  return beyond - predicted;
+}
+
+// Where profile[a..b] breaks from a flat background into a body (a jump and
+// a slope): the column boundary e (between pixel centres e − 0.5 and
+// e + 0.5 for step +1, the body at larger columns) that leaves the least
+// residual of a constant on the background's side and a line on the
+// body's. A blurred step and a slow rise from the limb alike break there.
+// `jump_sigmas` (optional) gets the body line's jump at the break over the
+// background's level, in units of one column's noise times its standard
+// error's factor.
+double BreakPoint(const std::vector<double>& profile, int a, int b, int step,
+                  double* jump = nullptr, double* jump_factor = nullptr) {
+  double best = std::numeric_limits<double>::infinity();
+  double at = std::numeric_limits<double>::quiet_NaN();
+  for (int e = a + 2; e <= b - 2; ++e) {
+    // Background: [a, e) for step +1, (e, b] below as [e + 1, b] mirrored.
+    const int bg_lo = step > 0 ? a : e + 1;
+    const int bg_hi = step > 0 ? e - 1 : b;
+    const int body_lo = step > 0 ? e : a;
+    const int body_hi = step > 0 ? b : e;
+    double sum = 0.0, sum_sq = 0.0;
+    for (int x = bg_lo; x <= bg_hi; ++x) {
+      sum += profile[x];
+      sum_sq += profile[x] * profile[x];
+    }
+    const int nb = bg_hi - bg_lo + 1;
+    double rss = sum_sq - sum * sum / nb;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+    const int n = body_hi - body_lo + 1;
+    for (int x = body_lo; x <= body_hi; ++x) {
+      sx += x;
+      sy += profile[x];
+      sxx += double(x) * x;
+      sxy += x * profile[x];
+      syy += profile[x] * profile[x];
+    }
+    const double vxx = sxx - sx * sx / n, vxy = sxy - sx * sy / n, vyy = syy - sy * sy / n;
+    rss += vxx > 0.0 ? vyy - vxy * vxy / vxx : vyy;
+    if (rss < best) {
+      best = rss;
+      at = step > 0 ? e - 0.5 : e + 0.5;
+      const double line_slope = vxx > 0.0 ? vxy / vxx : 0.0;
+      const double xbar = sx / n;
+      const double d = at - xbar;
+      if (jump != nullptr) *jump = sy / n + line_slope * d - sum / nb;
+      if (jump_factor != nullptr) {
+        *jump_factor = std::sqrt(1.0 / nb + 1.0 / n + (vxx > 0.0 ? d * d / vxx : 0.0));
+      }
+    }
+  }
+  return at;
+}
+
+// The limbs seen in all the given rows at once: each row's columns shifted
+// along the axis's slope (columns per row, about center_row) and summed
+// into one profile, whose outermost steps (FindBandLimbs, with the noise of
+// that many rows) are the limbs at center_row, in region columns. A limb
+// whose step is too faint for one band's rows (stray light that leaves the
+// body near its limb barely above the background) stands out of all of
+// them; a band then finds its first step further in, on the body's rise.
+BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
+                           const std::vector<int>& rows, double slope, double center_row,
+                           int side, double noise, int min_separation) {
+  std::vector<double> sum(region.width, 0.0);
+  std::vector<int> count(region.width, 0);
+  for (int y : rows) {
+    const double shift = slope * (y - center_row);
+    const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
+    for (int x = 0; x < region.width; ++x) {
+      const double at = region.x + x + shift;
+      const int x0 = static_cast<int>(std::floor(at));
+      if (x0 < region.x || x0 + 1 >= region.x + region.width) continue;
+      const double t = at - x0;
+      sum[x] += (1.0 - t) * row[x0] + t * row[x0 + 1];
+      ++count[x];
+    }
+  }
+  // Columns that some rows' shift carried out of the region are left as
+  // the nearest full column (the side strips hold only background).
+  const int full = static_cast<int>(rows.size());
+  std::vector<double> profile(region.width, 0.0);
+  int first_full = -1;
+  int last_full = -1;
+  for (int x = 0; x < region.width; ++x) {
+    if (count[x] != full || full == 0) continue;
+    if (first_full < 0) first_full = x;
+    last_full = x;
+  }
+  if (first_full < 0) return BandLimbs();
+  for (int x = 0; x < region.width; ++x) {
+    const int from = std::clamp(x, first_full, last_full);
+    profile[x] = sum[from] / full;
+  }
+  // Steps over 4, 8 and 16 columns: a body that rises slowly from its limb
+  // (stray light grazing it) shows over the wider ones first. A step at x is
+  // the mean of the h columns beyond x less the line through the 2h columns
+  // before it carried on to them: the background's gradient and vignetting
+  // are carried with it, which at the noise of all rows would pass for a
+  // step (ExtrapolatedStep). The first x from each side where one stands
+  // kShearedSigmas above its noise starts a window; the limb is where the
+  // window's profile breaks from the background into the body's jump and
+  // slope (BreakPoint). kShearedSigmas: a few hundred columns are tried at
+  // three widths, and a Gaussian false step of 6σ comes once in 10^9.
+  constexpr double kShearedSigmas = 6.0;
+  const double column_noise = noise / std::sqrt(static_cast<double>(full));
+  // And at least kMinStepShare of the body's typical contrast with the
+  // background (the median over the middle half of the columns), as in the
+  // bands: a render without noise has none to set the scale.
+  constexpr double kMinStepShare = 0.005;
+  std::vector<double> middle(profile.begin() + region.width / 4,
+                             profile.begin() + 3 * region.width / 4);
+  std::vector<double> strips(profile.begin(), profile.begin() + side);
+  strips.insert(strips.end(), profile.end() - side, profile.end());
+  const double floor = kMinStepShare * std::fabs(Median(middle) - Median(strips));
+  BandLimbs limbs;
+  auto fires = [&](int x, int h, int step) {
+    double sigma = 0.0;
+    const double d = ExtrapolatedStep(profile, x, h, step, &sigma);
+    return std::fabs(d) > std::max(kShearedSigmas * sigma * column_noise, floor);
+  };
+  // The limb in the window of a step found at x over h columns, when the
+  // profile breaks there with a jump (a limb is a jump out of the
+  // background, however small: where the profile only bends, as the
+  // shading of a body in shadow at the background's level does, NaN).
+  auto limb_at = [&](int x, int h, int step) {
+    const int a = step > 0 ? x - h : x - 2 * h;
+    const int b = step > 0 ? x + 2 * h : x + h;
+    double jump = 0.0;
+    double factor = 1.0;
+    const double e = BreakPoint(profile, std::max(a, 0), std::min(b, region.width - 1), step,
+                                &jump, &factor);
+    return std::fabs(jump) > std::max(kShearedSigmas * factor * column_noise, floor)
+               ? e
+               : std::numeric_limits<double>::quiet_NaN();
+  };
+  // From each side inward, the first column where a step fires at some
+  // width. A wide step fires before the limb it holds (its h columns reach
+  // over it): the narrower widths are then tried over those columns, so
+  // that the window the limb is placed in is the narrowest that sees it
+  // (texture and glints inside the body bend a wide window's break).
+  auto first_step = [&](int step, double* fired) {
+    for (int k = side; k < region.width - side; ++k) {
+      const int x = step > 0 ? k : region.width - 1 - k;
+      for (int h : {4, 8, 16}) {
+        if (!fires(x, h, step)) continue;
+        *fired = x;
+        for (int fine : {4, 8}) {
+          if (fine >= h) break;
+          for (int j = 0; j <= h; ++j) {
+            if (!fires(x + step * j, fine, step)) continue;
+            const double e = limb_at(x + step * j, fine, step);
+            if (std::isfinite(e)) return e;
+            break;
+          }
+        }
+        const double e = limb_at(x, h, step);
+        if (std::isfinite(e)) return e;
+        break;
+      }
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  limbs.left_cross = first_step(+1, &limbs.left_fired);
+  limbs.right_cross = first_step(-1, &limbs.right_fired);
+  limbs.found = std::isfinite(limbs.left_cross) && std::isfinite(limbs.right_cross) &&
+                limbs.right_cross - limbs.left_cross >= min_separation;
+  return limbs;
+}
+
+// The bands where both limbs were found: their first limb estimates and
+// profiles, and the scatter each limb's first fit gave.
+struct BandEdges {
+  double row = 0.0;
+  double left_cross = 0.0;
+  double right_cross = 0.0;
+  double radius = 0.0;
+  std::vector<double> profile;
+  // Columns (of the region) where a pixel of the band's rows clipped: the
+  // band's mean there is a lower bound, and the edge fits leave it out.
+  std::vector<std::uint8_t> clipped;
+  // The background beside each limb: its side strip's level (a gradient
+  // across the frame puts the two apart).
+  double left_background = 0.0;
+  double right_background = 0.0;
+  int first = 0;  // the band's rows, inclusive
+  int last = 0;
+};
+
+// The share of the columns between the limbs that must show the body.
+constexpr double kBodyShare = 0.7;
+
+// How many columns between two edges show a body: a mean over all rows
+// that stands apart from the background, or pixels that vary down the
+// column (over the bands' rows) beyond the background's noise. A body in
+// stray light as bright as the background still shows the weave's texture
+// down every column (the threads cross it at their own period); the
+// background between isolated glints shows noise alone. Over n rows a
+// standard deviation is known to 1/√(2n) of itself: kTextureSigmas of that
+// above the noise.
+// Or, where the body is as bright and as smooth as the background over
+// much of its width (a smooth sample in stray light), both edges must step
+// into a body: the mean over all rows 3-10 px inside each differs from the
+// level 3-10 px outside it. Just inside the outermost line of glints lies
+// background again.
+struct BodyCoverage {
+  int on = 0;
+  int total = 0;
+  bool limbs_step_into_body = false;
+};
+BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
+                       const std::vector<double>& mean_profile, double background, double noise,
+                       int mean_rows, double edge_sigmas, const std::vector<BandEdges>& bands,
+                       double left_column, double right_column) {
+  constexpr double kTextureSigmas = 6.0;
+  constexpr int kRows = 256;
+  std::vector<int> rows;
+  int total_rows = 0;
+  for (const BandEdges& b : bands) total_rows += b.last - b.first + 1;
+  const int stride = std::max(1, total_rows / kRows);
+  int k = 0;
+  for (const BandEdges& b : bands) {
+    for (int y = b.first; y <= b.last; ++y, ++k) {
+      if (k % stride == 0) rows.push_back(y);
+    }
+  }
+  const double mean_threshold =
+      edge_sigmas * noise / std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
+  const double n = static_cast<double>(rows.size());
+  const double texture_threshold =
+      n >= 8 ? noise * (1.0 + kTextureSigmas / std::sqrt(2.0 * n))
+             : std::numeric_limits<double>::infinity();
+  BodyCoverage c;
+  for (int x = static_cast<int>(std::ceil(left_column)) + 2;
+       x <= static_cast<int>(std::floor(right_column)) - 2; ++x) {
+    if (x < region.x || x >= region.x + region.width) continue;
+    ++c.total;
+    if (std::fabs(mean_profile[x - region.x] - background) > mean_threshold) {
+      ++c.on;
+      continue;
+    }
+    double sum = 0.0;
+    double sum_sq = 0.0;
+    for (int y : rows) {
+      const double v = luminance.At(x, y);
+      sum += v;
+      sum_sq += v * v;
+    }
+    const double mean = sum / std::max(n, 1.0);
+    const double sd = std::sqrt(std::max(0.0, sum_sq / std::max(n, 1.0) - mean * mean));
+    c.on += sd > texture_threshold;
+  }
+  auto steps_in = [&](double edge, int inward) {
+    double inside = 0.0;
+    double outside = 0.0;
+    for (int d = 3; d <= 10; ++d) {
+      const int in = static_cast<int>(std::lround(edge + inward * d)) - region.x;
+      const int out = static_cast<int>(std::lround(edge - inward * d)) - region.x;
+      if (std::min(in, out) < 0 || std::max(in, out) >= region.width) return false;
+      inside += mean_profile[in] / 8.0;
+      outside += mean_profile[out] / 8.0;
+    }
+    // Each an 8-column mean: its noise is the column's over √8.
+    return std::fabs(inside - outside) > mean_threshold;
+  };
+  c.limbs_step_into_body = steps_in(left_column, +1) && steps_in(right_column, -1);
+  return c;
+}
+
+// Where all rows place a limb more than kReseedPx from the line through the
+// bands' own first estimates, the bands' estimates of that limb move onto
+// the all-rows limb (along the same slope). Outward: a band's noise can
+// hide a faint step (a stray-lit body that rises slowly from its limb).
+// Inward: the bands find a limb where the level first departs from the
+// side strip's, and a background that vignetting or a gradient carries
+// away from that level departs without a step; the all-rows search, whose
+// steps are measured against the background's own trend (ExtrapolatedStep),
+// passed over that column without finding one. The slope is that of the
+// limb whose bands agree best (more of them on its line; then the smaller
+// scatter).
+// Returns which limbs moved, and the lines through the bands' own edges
+// (image columns): an edge the bands see where all rows see the body start
+// elsewhere may still be the terminator of a body as dark as the
+// background beyond it, whose foot all rows found; the dark-limb inference
+// starts from the bands' edge.
+struct Reseeded {
+  bool left = false;
+  bool right = false;
+  Line left_bands;
+  Line right_bands;
+};
+Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, double center_row,
+                          int side, double noise, const CylinderDetectionOptions& options,
+                          std::vector<BandEdges>* bands) {
+  // The all-rows break lies on the pixel grid (BreakPoint), and the body's
+  // texture bends its line: it agrees with the bands' limbs to about 2 px
+  // where both see one, so a move takes more.
+  constexpr double kReseedPx = 3.0;
+  Reseeded moved;
+  if (bands->size() < 3) return moved;
+  std::vector<LimbPoint> left_first;
+  std::vector<LimbPoint> right_first;
+  for (const BandEdges& b : *bands) {
+    left_first.push_back({b.row, b.left_cross});
+    right_first.push_back({b.row, b.right_cross});
+  }
+  const Line left = FitLimbLine(left_first, center_row);
+  const Line right = FitLimbLine(right_first, center_row);
+  auto inliers = [](const Line& l) { return std::count(l.inlier.begin(), l.inlier.end(), true); };
+  const bool use_left = inliers(left) > inliers(right) ||
+                        (inliers(left) == inliers(right) && left.rms < right.rms);
+  const double slope = use_left ? left.slope : right.slope;
+  // The rows of the bands on both lines, at most kRows of them.
+  constexpr int kRows = 512;
+  std::vector<int> rows;
+  int total = 0;
+  for (std::size_t i = 0; i < bands->size(); ++i) {
+    if (left.inlier[i] && right.inlier[i]) total += (*bands)[i].last - (*bands)[i].first + 1;
+  }
+  const int stride = std::max(1, total / kRows);
+  int k = 0;
+  for (std::size_t i = 0; i < bands->size(); ++i) {
+    if (!left.inlier[i] || !right.inlier[i]) continue;
+    for (int y = (*bands)[i].first; y <= (*bands)[i].last; ++y, ++k) {
+      if (k % stride == 0) rows.push_back(y);
+    }
+  }
+  if (rows.size() < 3) return moved;
+  const BandLimbs all = FindShearedLimbs(luminance, region, rows, slope, center_row, side, noise,
+                                         static_cast<int>(2 * options.min_radius_px));
+  if (!all.found) return moved;
+  // Inward only where no step fired within kReseedPx of the bands' line (a
+  // step that fired there but broke further in is the limb's, its break
+  // drawn in by glints or texture beside it).
+  const bool left_out = all.left_cross < left.at_center - kReseedPx ||
+                        all.left_fired > left.at_center + kReseedPx;
+  const bool right_out = all.right_cross > right.at_center + kReseedPx ||
+                         all.right_fired < right.at_center - kReseedPx;
+  for (BandEdges& b : *bands) {
+    const double along = slope * (b.row - center_row);
+    if (left_out) b.left_cross = all.left_cross + along;
+    if (right_out) b.right_cross = all.right_cross + along;
+    b.radius = 0.5 * (b.right_cross - b.left_cross);
+  }
+  moved.left = left_out;
+  moved.right = right_out;
+  moved.left_bands = left;
+  moved.right_bands = right;
+  moved.left_bands.at_center += region.x;
+  moved.right_bands.at_center += region.x;
+  return moved;
+}
+
 // The first and last columns of [from, to] more than half-way from the
 // median to the maximum: the ends of the specular lobe (for a split lobe, its
 // two caustics, whichever of them is the brighter). NaN when none is.
@@ -633,6 +1122,39 @@ ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
   return result;
 }
 
+// Whether direct light begins where the phase angle puts the terminator in
+// cylinder `c`: FindShadowOnset over the columns from the unlit limb to
+// kBeyondRad past the terminator finds an onset within kAtRad of it (in
+// azimuth; plus the tilt's smear of the all-rows mean). Stray light alone,
+// or a surface lit all through, fits without one.
+bool TerminatorSeen(const std::vector<double>& mean_profile, const PixelRegion& region,
+                    const CylinderGeometry& c, const CylinderDetectionOptions& options,
+                    double noise, int mean_rows) {
+  constexpr double kBeyondRad = 10.0 * M_PI / 180.0;
+  constexpr double kAtRad = 5.0 * M_PI / 180.0;
+  const int side = options.phase_angle_rad > 0 ? 1 : -1;
+  const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
+  auto column = [&](double phi) {
+    return c.center_x_px +
+           OffsetFromAzimuth(std::clamp(phi, -M_PI / 2.0, M_PI / 2.0), options.projection) * half;
+  };
+  const double x_dark = c.center_x_px - side * half;
+  const double x_beyond = column(phi_t + side * kBeyondRad);
+  const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_beyond) + smear)) - region.x;
+  const int hi = static_cast<int>(std::floor(std::max(x_dark, x_beyond) - smear)) - region.x;
+  if (hi - lo < 8) return false;
+  const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
+  const ShadowOnset onset =
+      FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
+                      options.projection, 6.0 * column_noise);
+  if (!onset.lit) return false;
+  const double x_term = column(phi_t);
+  const double tolerance = std::fabs(column(phi_t + side * kAtRad) - x_term) + smear;
+  return std::fabs(onset.onset_column + region.x - x_term) <= tolerance;
+}
+
 absl::Status CylinderDetectionOptions::Validate() const {
   if (num_bands < 3) return absl::InvalidArgumentError("num_bands must be >= 3");
   if (!(background_fraction > 0 && background_fraction < 0.25)) {
@@ -648,6 +1170,39 @@ absl::Status CylinderDetectionOptions::Validate() const {
 namespace {
 
 constexpr char kTooFewLimbs[] = "no cylinder found: only ";
+
+// Whether a side strip holds a step over the given rows: the mean of each
+// strip column over them, and a difference of three columns' means beside
+// three others beyond kStripStepSigmas of its noise. A limb there (a
+// cylinder that fills the frame) makes the body beyond it the strip's
+// level, and the body then departs from it only at its terminator. (Over
+// the bands' rows only: a mount's edges may stand in the strips beside the
+// cylinder's ends.)
+bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side,
+                     const std::vector<int>& rows, double noise) {
+  constexpr double kStripStepSigmas = 8.0;
+  if (side < 8 || rows.empty()) return false;
+  std::vector<double> left(side, 0.0);
+  std::vector<double> right(side, 0.0);
+  for (int y : rows) {
+    for (int i = 0; i < side; ++i) {
+      left[i] += luminance.At(region.x + i, y);
+      right[i] += luminance.At(region.x + region.width - 1 - i, y);
+    }
+  }
+  const double n = static_cast<double>(rows.size());
+  const double threshold = kStripStepSigmas * noise * std::sqrt(2.0 / (3.0 * n));
+  for (const std::vector<double>* strip : {&left, &right}) {
+    const std::vector<double>& p = *strip;
+    for (int x = 3; x + 3 < side; ++x) {
+      const double d = (p[x + 1] + p[x + 2] + p[x + 3] - p[x - 1] - p[x - 2] - p[x - 3]) / (3.0 * n);
+      if (std::fabs(d) > threshold) return true;
+    }
+  }
+  return false;
+}
+
+
 
 // DetectCylinder with `side_fraction` of the region's width at each side
 // taken as background. With `shadow_is_limb`, the edge away from the light is
@@ -684,15 +1239,21 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   const int side = std::max(2, static_cast<int>(std::lround(side_fraction * region.width)));
   const int row_step = std::max(1, region.height / 256);
   std::vector<double> samples;
+  std::vector<double> left_samples;
+  std::vector<double> right_samples;
   // At most about 32 columns per side and row (every one on small images).
   const int column_step = std::max(1, side / 32);
   for (int y = region.y; y < region.y + region.height; y += row_step) {
     for (int i = 0; i < side; i += column_step) {
-      samples.push_back(luminance.At(region.x + i, y));
-      samples.push_back(luminance.At(region.x + region.width - 1 - i, y));
+      left_samples.push_back(luminance.At(region.x + i, y));
+      right_samples.push_back(luminance.At(region.x + region.width - 1 - i, y));
     }
   }
+  samples = left_samples;
+  samples.insert(samples.end(), right_samples.begin(), right_samples.end());
   const double background = Median(samples);
+  const double left_background = Median(left_samples);
+  const double right_background = Median(right_samples);
   for (double& s : samples) s = std::fabs(s - background);
   const double noise = std::max(1.4826 * Median(samples), 1e-6);
 
@@ -709,18 +1270,6 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   const double center_row = region.y + (region.height - 1) / 2.0;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
-  // The bands where both limbs were found: their first limb estimates and
-  // profiles, and the scatter each limb's first fit gave.
-  struct BandEdges {
-    double row = 0.0;
-    double left_cross = 0.0;
-    double right_cross = 0.0;
-    double radius = 0.0;
-    std::vector<double> profile;
-    // Columns (of the region) where a pixel of the band's rows clipped: the
-    // band's mean there is a lower bound, and the edge fits leave it out.
-    std::vector<std::uint8_t> clipped;
-  };
   std::vector<BandEdges> bands_seen;
   std::vector<int> band_first(bands);
   std::vector<int> band_last(bands);
@@ -760,82 +1309,21 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       p /= band_rows;
       peak = std::max(peak, p);
     }
-    // Limbs are found on the band profile smoothed over kBox columns, so
-    // that a dim limb still stands out of the noise; the sub-pixel position
-    // comes from the unsmoothed profile below.
+    // A band mean's noise, over the smoothing box's five columns.
     constexpr int kBox = 5;
-    std::vector<double> smoothed(region.width, 0.0);
-    {
-      // A running sum over the box, truncated at the region's ends.
-      double sum = 0.0;
-      for (int k = 0; k < std::min(kBox / 2, region.width); ++k) sum += profile[k];
-      for (int x = 0; x < region.width; ++x) {
-        if (x + kBox / 2 < region.width) sum += profile[x + kBox / 2];
-        if (x - kBox / 2 - 1 >= 0) sum -= profile[x - kBox / 2 - 1];
-        const int count = std::min(region.width - 1, x + kBox / 2) - std::max(0, x - kBox / 2) + 1;
-        smoothed[x] = sum / count;
-      }
-    }
-    // A limb is a step away from the background level, up (a lit or grey
-    // body on black) or down (a dark cloth on a brighter background).
     const double threshold =
         std::max(options.edge_sigmas * noise / std::sqrt(band_rows * kBox),
                  0.005 * (peak - background));
-    auto above = [&](int x) {
-      return x >= 0 && x < region.width && std::fabs(smoothed[x] - background) > threshold;
-    };
-    int left = -1;
-    for (int x = side; x + 2 < region.width - side; ++x) {
-      if (above(x) && above(x + 1) && above(x + 2)) {
-        left = x;
-        break;
-      }
-    }
-    int right = -1;
-    for (int x = region.width - 1 - side; x - 2 >= side; --x) {
-      if (above(x) && above(x - 1) && above(x - 2)) {
-        right = x;
-        break;
-      }
-    }
-    // A limb found at the first column searched lies in (or beyond) the side
-    // strip taken as background: its position is not measured, and the
-    // band is left out.
-    if (left < 0 || right < 0 || right - left < 2 * options.min_radius_px || left == side ||
-        right == region.width - 1 - side) {
-      continue;
-    }
-    // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
-    // step's half-level crossing in place) crosses half-way between the
-    // background and the surface level just inside the limb. The first
-    // column above the threshold has the limb pixel (partly covered) at the
-    // end of its box, two columns on; the first wholly covered pixel is the
-    // third. Its own (unsmoothed) value is the level: any further in may be
-    // the lit surface beyond the terminator of an unlit limb. At the limb
-    // toward the light, where glints may reach it, a third column standing
-    // well above the next three is a glint, and their least is the level: a
-    // glint there (1 px inside the limb at α = 140°) made the half level one
-    // the smoothed profile never crossed, and the limb was put 4.7 px out.
-    auto inside_level = [&](int from, int step, bool glints_may_reach) {
-      const double level = profile[std::clamp(from + 3 * step, 0, region.width - 1)];
-      if (!glints_may_reach) return level;
-      double least = level;
-      for (int k = 4; k <= 6; ++k) {
-        least = std::min(least, profile[std::clamp(from + k * step, 0, region.width - 1)]);
-      }
-      return level > least + kEdgeRise * std::max(least - background, 0.0) ? least : level;
-    };
-    const double left_half =
-        0.5 * (background + inside_level(left, +1, glints_reach_limb && light < 0));
-    const double right_half =
-        0.5 * (background + inside_level(right, -1, glints_reach_limb && light > 0));
+    const BandLimbs limbs = FindBandLimbs(
+        profile, side, threshold, static_cast<int>(2 * options.min_radius_px),
+        glints_reach_limb && light < 0, glints_reach_limb && light > 0, left_background,
+        right_background);
+    if (!limbs.found) continue;
     const double row = 0.5 * (y0 + y1 - 1);
-    const double left_cross = Crossing(smoothed, std::max(left - 3, 0),
-                                       std::min(left + 4, region.width - 1), left_half);
-    const double right_cross = Crossing(smoothed, std::min(right + 3, region.width - 1),
-                                        std::max(right - 4, 0), right_half);
-    const double band_radius = 0.5 * (right_cross - left_cross);
-    bands_seen.push_back({row, left_cross, right_cross, band_radius, profile, std::move(clipped)});
+    const double band_radius = 0.5 * (limbs.right_cross - limbs.left_cross);
+    bands_seen.push_back({row, limbs.left_cross, limbs.right_cross, band_radius, profile,
+                          std::move(clipped), limbs.left_background, limbs.right_background,
+                          y0, y1 - 1});
   }
   // Each limb to a fraction of a pixel (RefineEdge), twice: the grazing
   // scatter's strength S is the same along a limb, so the second pass holds
@@ -875,7 +1363,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
         center = around->at_center + around->slope * (band.row - center_row) - region.x;
       }
       points.push_back(
-          {band.row, region.x + RefineEdge(band.profile, background, e0, inward, band.radius,
+          {band.row, region.x + RefineEdge(band.profile,
+                                           inward > 0 ? band.left_background
+                                                      : band.right_background,
+                                           e0, inward, band.radius,
                                            glints_reach_limb && toward_light,
                                            !shadowed_limb || toward_light, scatter, nullptr, blur,
                                            center, lit_from(toward_light, band.radius),
@@ -921,7 +1412,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       if (!line.inlier[i] || (use_band != nullptr && !(*use_band)[i])) continue;
       const BandEdges& band = bands_seen[i];
       EdgeWindow w = MakeEdgeWindow(
-          band.profile, background, inward > 0 ? band.left_cross : band.right_cross, inward,
+          band.profile, inward > 0 ? band.left_background : band.right_background,
+          inward > 0 ? band.left_cross : band.right_cross, inward,
           band.radius, glints_reach_limb && toward_light, lit_from(toward_light, band.radius),
           limb_pad(toward_light), fixed_blur != nullptr ? RampPx(*fixed_blur) : 0.0,
           &band.clipped);
@@ -1045,6 +1537,27 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (!extend) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
     return fit;
   };
+  {
+    // At most kRows of the bands' rows, evenly spread.
+    constexpr int kRows = 512;
+    std::vector<int> rows;
+    int total = 0;
+    for (const BandEdges& b : bands_seen) total += b.last - b.first + 1;
+    const int stride = std::max(1, total / kRows);
+    int k = 0;
+    for (const BandEdges& b : bands_seen) {
+      for (int y = b.first; y <= b.last; ++y, ++k) {
+        if (k % stride == 0) rows.push_back(y);
+      }
+    }
+    if (StripHoldsAStep(luminance, region, side, rows, noise)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          kTooFewLimbs, "part of the side strips (", side,
+          " px) is plain background: a limb lies in one"));
+    }
+  }
+  const Reseeded reseeded =
+      ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN());
   right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN());
   // The held S is one number for the whole limb, so its own noise moves every
@@ -1232,22 +1745,15 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // The surface between the two edges must be continuous: edges found on
   // isolated glints (a body as dark as the background, no lit terminator)
   // would place a cylinder that is not there.
-  {
-    const double mean_threshold = options.edge_sigmas * noise / std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
-    int on = 0;
-    int total = 0;
-    for (int x = static_cast<int>(std::ceil(left.at_center)) + 2;
-         x <= static_cast<int>(std::floor(right.at_center)) - 2; ++x) {
-      if (x < region.x || x >= region.x + region.width) continue;
-      ++total;
-      on += std::fabs(mean_profile[x - region.x] - background) > mean_threshold;
-    }
-    if (total == 0 || on < 0.7 * total) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "no cylinder found: only ", on, " of ", total, " columns between the two "
-          "edges differ from the background; a body as dark as the background "
-          "shows only its glints (light it, or darken the background)"));
-    }
+  if (const BodyCoverage body = CoverBody(luminance, region, mean_profile, background, noise,
+                                          mean_rows, options.edge_sigmas, bands_seen,
+                                          left.at_center, right.at_center);
+      body.total == 0 || (body.on < kBodyShare * body.total && !body.limbs_step_into_body)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no cylinder found: only ", body.on, " of ", body.total, " columns between the two "
+        "edges differ from the background in level or texture; a body as dark and as "
+        "smooth as the background shows only its glints (light it, or darken the "
+        "background)"));
   }
   // Usable rows: from the first to the last band whose limbs agree with the
   // fitted lines (ends of the cylinder and the mount are excluded).
@@ -1265,16 +1771,25 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // Refine the ends row by row: a row belongs to the cylinder when the
   // surface just inside both limbs (offsets 0.75–0.95) stands above the
   // background; bands that straddle an end would otherwise count whole.
+  // The row's own background is its side strips' median: a mount or an
+  // end beyond the cylinder fills whole rows at a level of its own, which
+  // the whole photograph's background would count as surface.
   auto row_on_cylinder = [&](int y) {
     double sum = 0.0;
     int n = 0;
+    std::vector<double> strips;
     for (int x = region.x; x < region.x + region.width; ++x) {
+      if (x < region.x + side || x >= region.x + region.width - side) {
+        strips.push_back(luminance.At(x, y));
+      }
       const double o = std::fabs(g.NormalisedOffset(x, y));
       if (o < 0.75 || o > 0.95) continue;
       sum += luminance.At(x, y);
       ++n;
     }
-    return n > 0 && std::fabs(sum / n - background) > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
+    const double row_background = strips.empty() ? background : Median(strips);
+    return n > 0 &&
+           std::fabs(sum / n - row_background) > options.edge_sigmas * noise / std::sqrt(n) * 0.75;
   };
   int top = band_first[first];
   while (top < band_last[first] && !(row_on_cylinder(top) && row_on_cylinder(top + 1))) ++top;
@@ -1367,12 +1882,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       }
       const double typical = disc.empty() ? 0.0 : Median(disc);
       const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
-      // TODO(issue31): FindShadowOnset (the two models of the shadow's
-      // profile) is to replace this range; on its own it let limbs found on
-      // the stray-lit body's roll-off through (random lab scenes), which
-      // this range refused by chance.
-      const double range = values[values.size() * 95 / 100] - values[values.size() * 5 / 100];
-      const bool flat = range < 0.25 * typical + 6.0 * column_noise;
+      const ShadowOnset onset =
+          FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
+                          options.projection, 6.0 * column_noise);
+      const bool flat = !onset.lit;
       if (seen != nullptr) {
         shadow_level = values[values.size() / 2];
         const double level = shadow_level - background;
@@ -1498,13 +2011,19 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     // slowly than the lit limb is a terminator: at α = −16° (640×480, a
     // Lambertian body as dark as the background) it stood 12 px inside the
     // limb, which put the lobe 1° off and called a sawtooth a sinusoid.
+    // Unless the terminator is seen where the phase angle puts it inside
+    // this cylinder: direct light beginning there (TerminatorSeen) makes the
+    // edge beyond the body in shadow its limb, however soft that limb's
+    // rise (a stray-lit body darkens toward its limb as the surface turns
+    // from the diffuse light).
     bool soft_unlit = false;
     if (std::fabs(options.phase_angle_rad) >= kShadowedLimbRad) {
       const int light_side = options.phase_angle_rad > 0 ? 1 : -1;
       const double lit_rise = edge_rise_px(g, light_side);
       const double unlit_rise = edge_rise_px(g, -light_side);
-      soft_unlit = std::isfinite(unlit_rise) && unlit_rise > kSoftEdgePx +
-                       (std::isfinite(lit_rise) ? lit_rise : 0.0);
+      soft_unlit = std::isfinite(unlit_rise) &&
+                   unlit_rise > kSoftEdgePx + (std::isfinite(lit_rise) ? lit_rise : 0.0) &&
+                   !TerminatorSeen(mean_profile, region, g, options, noise, mean_rows);
     }
     std::string why_not_inferred;
     // A lobe off α/2 alone does not make the unlit edge a terminator when
@@ -1517,7 +2036,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       // The edge away from the light may be a soft terminator: the tilt is
       // the lit limb's alone.
       const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
-      const Line& other = options.phase_angle_rad > 0 ? final_left : final_right;
+      const bool unlit_moved = options.phase_angle_rad > 0 ? reseeded.left : reseeded.right;
+      const Line& other =
+          unlit_moved ? (options.phase_angle_rad > 0 ? reseeded.left_bands : reseeded.right_bands)
+                      : (options.phase_angle_rad > 0 ? final_left : final_right);
       CylinderGeometry edges = g;
       edges.axis_angle_rad = std::atan(-lit.slope);
       edges.center_x_px = 0.5 * (lit.at_center + other.at_center);
