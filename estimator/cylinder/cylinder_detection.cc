@@ -641,15 +641,16 @@ double ExtrapolatedStep(const std::vector<double>& profile, int x, int h, int st
 // e + 0.5 for step +1, the body at larger columns) that leaves the least
 // residual of a constant on the background's side and a line on the
 // body's. A blurred step and a slow rise from the limb alike break there.
-// `jump_sigmas` (optional) gets the body line's jump at the break over the
-// background's level, in units of one column's noise times its standard
-// error's factor.
+// `jump` (optional) gets the body line's value at the break less the
+// background's mean, and `jump_factor` its standard error in units of one
+// column's noise.
 double BreakPoint(const std::vector<double>& profile, int a, int b, int step,
                   double* jump = nullptr, double* jump_factor = nullptr) {
   double best = std::numeric_limits<double>::infinity();
   double at = std::numeric_limits<double>::quiet_NaN();
   for (int e = a + 2; e <= b - 2; ++e) {
-    // Background: [a, e) for step +1, (e, b] below as [e + 1, b] mirrored.
+    // Background [a, e − 1] and body [e, b] for step +1; body [a, e] and
+    // background [e + 1, b] for step −1.
     const int bg_lo = step > 0 ? a : e + 1;
     const int bg_hi = step > 0 ? e - 1 : b;
     const int body_lo = step > 0 ? e : a;
@@ -689,8 +690,8 @@ double BreakPoint(const std::vector<double>& profile, int a, int b, int step,
 
 // The limbs seen in all the given rows at once: each row's columns shifted
 // along the axis's slope (columns per row, about center_row) and summed
-// into one profile, whose outermost steps (FindBandLimbs, with the noise of
-// that many rows) are the limbs at center_row, in region columns. A limb
+// into one profile, whose outermost steps (below, with the noise of that
+// many rows) are the limbs at center_row, in region columns. A limb
 // whose step is too faint for one band's rows (stray light that leaves the
 // body near its limb barely above the background) stands out of all of
 // them; a band then finds its first step further in, on the body's rise.
@@ -822,6 +823,26 @@ struct BandEdges {
   int last = 0;
 };
 
+// At most `max_rows` of the bands' rows (those with `use[i]`, when given),
+// evenly spread.
+std::vector<int> SpreadRows(const std::vector<BandEdges>& bands, int max_rows,
+                            const std::vector<bool>* use = nullptr) {
+  int total = 0;
+  for (std::size_t i = 0; i < bands.size(); ++i) {
+    if (use == nullptr || (*use)[i]) total += bands[i].last - bands[i].first + 1;
+  }
+  const int stride = std::max(1, total / std::max(max_rows, 1));
+  std::vector<int> rows;
+  int k = 0;
+  for (std::size_t i = 0; i < bands.size(); ++i) {
+    if (use != nullptr && !(*use)[i]) continue;
+    for (int y = bands[i].first; y <= bands[i].last; ++y, ++k) {
+      if (k % stride == 0) rows.push_back(y);
+    }
+  }
+  return rows;
+}
+
 // The share of the columns between the limbs that must show the body.
 constexpr double kBodyShare = 0.7;
 
@@ -848,17 +869,7 @@ BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
                        int mean_rows, double edge_sigmas, const std::vector<BandEdges>& bands,
                        double left_column, double right_column) {
   constexpr double kTextureSigmas = 6.0;
-  constexpr int kRows = 256;
-  std::vector<int> rows;
-  int total_rows = 0;
-  for (const BandEdges& b : bands) total_rows += b.last - b.first + 1;
-  const int stride = std::max(1, total_rows / kRows);
-  int k = 0;
-  for (const BandEdges& b : bands) {
-    for (int y = b.first; y <= b.last; ++y, ++k) {
-      if (k % stride == 0) rows.push_back(y);
-    }
-  }
+  const std::vector<int> rows = SpreadRows(bands, 256);
   const double mean_threshold =
       edge_sigmas * noise / std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
   const double n = static_cast<double>(rows.size());
@@ -945,21 +956,10 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   const bool use_left = inliers(left) > inliers(right) ||
                         (inliers(left) == inliers(right) && left.rms < right.rms);
   const double slope = use_left ? left.slope : right.slope;
-  // The rows of the bands on both lines, at most kRows of them.
-  constexpr int kRows = 512;
-  std::vector<int> rows;
-  int total = 0;
-  for (std::size_t i = 0; i < bands->size(); ++i) {
-    if (left.inlier[i] && right.inlier[i]) total += (*bands)[i].last - (*bands)[i].first + 1;
-  }
-  const int stride = std::max(1, total / kRows);
-  int k = 0;
-  for (std::size_t i = 0; i < bands->size(); ++i) {
-    if (!left.inlier[i] || !right.inlier[i]) continue;
-    for (int y = (*bands)[i].first; y <= (*bands)[i].last; ++y, ++k) {
-      if (k % stride == 0) rows.push_back(y);
-    }
-  }
+  // The rows of the bands on both lines.
+  std::vector<bool> on_both(bands->size());
+  for (std::size_t i = 0; i < bands->size(); ++i) on_both[i] = left.inlier[i] && right.inlier[i];
+  const std::vector<int> rows = SpreadRows(*bands, 512, &on_both);
   if (rows.size() < 3) return moved;
   const BandLimbs all = FindShearedLimbs(luminance, region, rows, slope, center_row, side, noise,
                                          static_cast<int>(2 * options.min_radius_px));
@@ -1201,8 +1201,6 @@ bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side
   }
   return false;
 }
-
-
 
 // DetectCylinder with `side_fraction` of the region's width at each side
 // taken as background. With `shadow_is_limb`, the edge away from the light is
@@ -1537,24 +1535,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (!extend) std::fill(fit.line.inlier.begin(), fit.line.inlier.end(), false);
     return fit;
   };
-  {
-    // At most kRows of the bands' rows, evenly spread.
-    constexpr int kRows = 512;
-    std::vector<int> rows;
-    int total = 0;
-    for (const BandEdges& b : bands_seen) total += b.last - b.first + 1;
-    const int stride = std::max(1, total / kRows);
-    int k = 0;
-    for (const BandEdges& b : bands_seen) {
-      for (int y = b.first; y <= b.last; ++y, ++k) {
-        if (k % stride == 0) rows.push_back(y);
-      }
-    }
-    if (StripHoldsAStep(luminance, region, side, rows, noise)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          kTooFewLimbs, "part of the side strips (", side,
-          " px) is plain background: a limb lies in one"));
-    }
+  if (StripHoldsAStep(luminance, region, side, SpreadRows(bands_seen, 512), noise)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        kTooFewLimbs, "part of the side strips (", side,
+        " px) is plain background: a limb lies in one"));
   }
   const Reseeded reseeded =
       ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);

@@ -101,7 +101,7 @@ struct CylinderDetectionOptions {
   // Phase angle (rad) when known: the brightest part of the surface must
   // then lie within max_lobe_offset_rad of the mirror azimuth α/2, and the
   // part of the disc in shadow (beyond the terminator α − sign(α)·90°) must
-  // be dark and free of glints. When the lobe lies more than
+  // show no direct light (stray light may light it, FindShadowOnset). When the lobe lies more than
   // min_lobe_offset_to_infer_rad away or the shadow is lit, the edge away
   // from the light is tried as the terminator, with the limb beyond it lost
   // in darkness and inferred (terminator.h); that cylinder is kept when its
@@ -132,8 +132,8 @@ struct CylinderDetectionOptions {
 //       scatter, a step ∝ 1/cos φ; φ0 scanned over the region.
 // `lit` when M1 is decisively better (see the .cc) and its rise exceeds
 // min_rise. Regions under 8 blocks are not judged (judged and lit false).
-// Not yet the detector's rule (see the TODO in DetectWithSideStrips): alone it
-// let through limbs found on the stray-lit body's roll-off toward its limb.
+// The detector's test of the shadow: an onset there means the edge taken for
+// the unlit limb is not one.
 struct ShadowOnset {
   bool judged = false;        // the region held 8 blocks or more
   bool lit = false;
