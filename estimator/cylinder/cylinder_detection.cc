@@ -1202,6 +1202,292 @@ bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side
   return false;
 }
 
+// What the phase checks read of the photograph.
+struct SeenPhotograph {
+  const Image& luminance;
+  PixelRegion region;
+  const std::vector<double>& mean_profile;  // all rows' column means
+  double background = 0.0;
+  double noise = 0.0;
+  int mean_rows = 0;
+  int side = 0;  // the side strips' width, px
+  const CylinderDetectionOptions& options;
+};
+
+// With the phase angle known, the lobe must stand near the mirror azimuth
+// α/2. When it does not, the edge on the side away from the light may be
+// the terminator, the limb beyond it lost in darkness: infer that limb
+// (terminator.h) and keep the cylinder whose lobe stands at α/2. `g` is
+// the cylinder of both limbs seen, through the limb lines final_left and
+// final_right; `reseeded` says which limbs all rows placed.
+absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
+                                                   const CylinderGeometry& g,
+                                                   const Line& final_left,
+                                                   const Line& final_right,
+                                                   const Reseeded& reseeded) {
+  const Image& luminance = seen.luminance;
+  const PixelRegion& region = seen.region;
+  const std::vector<double>& mean_profile = seen.mean_profile;
+  const double background = seen.background;
+  const double noise = seen.noise;
+  const int mean_rows = seen.mean_rows;
+  const int side = seen.side;
+  const CylinderDetectionOptions& options = seen.options;
+  const double half_alpha = options.phase_angle_rad / 2.0;
+  // Where the lobe stands: the mean azimuth of its two ends. A split
+  // lobe's caustics lie symmetric about the mirror azimuth, whichever is
+  // the brighter. (The centroid of the brightest columns, used before,
+  // took a seen limb for a dark one under a wide lobe:
+  // DetectionCasesTest.WideSplitLobeKeepsBothSeenLimbs.)
+  auto lobe_azimuth = [&](const CylinderGeometry& c) {
+    const double half = c.radius_px / std::cos(c.axis_angle_rad);
+    const auto [first, last] = BrightExtent(mean_profile, region.x, c.center_x_px - 0.9 * half,
+                                            c.center_x_px + 0.9 * half);
+    if (!std::isfinite(first)) return half_alpha;
+    auto azimuth = [&](double x) {
+      return AzimuthFromOffset(std::clamp((x - c.center_x_px) / half, -1.0, 1.0),
+                               options.projection);
+    };
+    return 0.5 * (azimuth(first) + azimuth(last));
+  };
+  // The part of the disc in shadow, from the unlit limb to the terminator
+  // φ_T = α − sign(α)·90° (with a margin for blur and the tilt's smear of
+  // the column means), can only show the body's ambient level: no
+  // Lambertian, scatter or glint reaches it (DESIGN.md §3). A rise there
+  // means the edge taken for the unlit limb is the terminator or beyond.
+  // `seen`, when given, is set when the shadow is flat and stands clearly
+  // above the background: a body seen in its own shadow, whose edge is its
+  // limb (a terminator is taken for a limb only where the body beyond it
+  // is as dark as the background).
+  double shadow_level = std::numeric_limits<double>::quiet_NaN();
+  auto shadow_is_flat = [&](const CylinderGeometry& c, bool* seen = nullptr) {
+    if (seen != nullptr) *seen = false;
+    const int side = options.phase_angle_rad > 0 ? 1 : -1;
+    const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
+    const double half = c.radius_px / std::cos(c.axis_angle_rad);
+    const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
+    const double margin = 3.0 * M_PI / 180.0;
+    const double x_dark = c.center_x_px - side * half;
+    const double x_term = c.center_x_px + OffsetFromAzimuth(phi_t - side * margin, options.projection) * half;
+    const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_term) + smear)) - region.x;
+    const int hi = static_cast<int>(std::floor(std::max(x_dark, x_term) - smear)) - region.x;
+    if (hi - lo < 4) return true;
+    std::vector<double> values;
+    for (int x = std::max(lo, 2); x <= std::min(hi, region.width - 3); ++x) {
+      double v = 0.0;
+      for (int k = -2; k <= 2; ++k) v += mean_profile[x + k];
+      values.push_back(v / 5.0);
+    }
+    if (values.size() < 4) return true;
+    std::sort(values.begin(), values.end());
+    // The scale: the surface's typical level over the disc (a maximum
+    // would be a clipped glint's).
+    std::vector<double> disc;
+    for (int x = static_cast<int>(std::ceil(c.center_x_px - half)) - region.x;
+         x <= static_cast<int>(std::floor(c.center_x_px + half)) - region.x; ++x) {
+      if (x >= 0 && x < region.width) disc.push_back(std::fabs(mean_profile[x] - background));
+    }
+    const double typical = disc.empty() ? 0.0 : Median(disc);
+    const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
+    const ShadowOnset onset =
+        FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
+                        options.projection, 6.0 * column_noise);
+    const bool flat = !onset.lit;
+    if (seen != nullptr) {
+      shadow_level = values[values.size() / 2];
+      const double level = shadow_level - background;
+      *seen = flat && std::fabs(level) > std::max(kSeenShadowSigmas * column_noise,
+                                                  kSeenShadowShare * typical);
+    }
+    return flat;
+  };
+  // Just inside the unlit limb the surface is in shadow (|α| ≥ 20°): its
+  // pixels vary across rows by the noise and the cloth's texture, not by
+  // the comb of glints an edge of the specular lobe shows.
+  auto unlit_edge_is_smooth = [&](const CylinderGeometry& c) {
+    if (std::fabs(options.phase_angle_rad) < 20.0 * M_PI / 180.0) return true;
+    const int side = options.phase_angle_rad > 0 ? 1 : -1;
+    const double half = c.radius_px / std::cos(c.axis_angle_rad);
+    std::vector<double> spreads;
+    std::vector<double> levels;
+    for (int k = 1; k <= 5; ++k) {
+      double sum = 0.0;
+      double sum_sq = 0.0;
+      int n = 0;
+      for (int y = c.top_row; y <= c.bottom_row; ++y) {
+        const int x = static_cast<int>(std::lround(c.AxisColumn(y) - side * (half - k)));
+        if (x < 0 || x >= luminance.width) continue;
+        const double v = luminance.At(x, y);
+        sum += v;
+        sum_sq += v * v;
+        ++n;
+      }
+      if (n < 3) continue;
+      const double mean = sum / n;
+      spreads.push_back(std::sqrt(std::max(0.0, sum_sq / n - mean * mean)));
+      levels.push_back(std::fabs(mean - background));
+    }
+    if (spreads.empty()) return true;
+    return Median(spreads) < 4.0 * noise + 0.3 * Median(levels);
+  };
+  // A limb is where the body meets the background: just beyond the edge
+  // taken for the unlit limb (4-10 px out, past a lens blur of a pixel or
+  // two, whose tail there is a few per cent of the step) the level must
+  // lie within kLimbOutsideShare of the way from the background (the strip
+  // on that side, for its gradient) to the body seen in shadow. Under stray
+  // light the body darkens toward its limb gradually (the diffuse light
+  // falls off as the surface turns away), and an edge found on that
+  // roll-off, the body continuing beyond it, is not the limb.
+  auto unlit_edge_meets_background = [&](const CylinderGeometry& c) {
+    if (!std::isfinite(shadow_level)) return true;
+    const int unlit = options.phase_angle_rad > 0 ? -1 : 1;
+    const double half = c.radius_px / std::cos(c.axis_angle_rad);
+    // Over the usable rows only: the ends' mount may stand beside the others.
+    const int from = region.x + (unlit < 0 ? 0 : region.width - side);
+    const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+    std::vector<double> strip;
+    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+      for (int x = from; x < from + side; ++x) strip.push_back(luminance.At(x, y));
+    }
+    if (strip.empty()) return true;
+    const double local_background = Median(strip);
+    double sum = 0.0;
+    int n = 0;
+    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+      for (int d = 4; d <= 10; ++d) {
+        const int x = static_cast<int>(std::lround(c.AxisColumn(y) + unlit * (half + d)));
+        if (x < region.x || x >= region.x + region.width) continue;
+        sum += luminance.At(x, y);
+        ++n;
+      }
+    }
+    if (n == 0) return true;
+    return !(std::fabs(sum / n - local_background) >
+             kLimbOutsideShare * std::fabs(shadow_level - local_background));
+  };
+  // The 20-80 % rise of an edge, px, from the mean over the usable rows
+  // of each row's pixels at a distance d inside it (along the row, the
+  // axis's tilt followed): a limb is a step blurred by the lens, a
+  // terminator taken for one a ramp (the Lambertian term grows from zero
+  // there). NaN when the edge has too little contrast to measure.
+  auto edge_rise_px = [&](const CylinderGeometry& c, int side) {
+    const double half = c.radius_px / std::cos(c.axis_angle_rad);
+    const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+    constexpr int kOut = 4, kIn = 14;
+    std::vector<double> level(kOut + kIn + 1, 0.0);
+    int rows = 0;
+    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+      const double edge = c.AxisColumn(y) + side * half;  // side −1: left
+      const double x_lo = edge - side * kIn, x_hi = edge + side * kOut;
+      if (std::min(x_lo, x_hi) < 0 || std::max(x_lo, x_hi) > luminance.width - 2) continue;
+      for (int d = -kOut; d <= kIn; ++d) {
+        const double x = edge - side * d;
+        const int x0 = static_cast<int>(std::floor(x));
+        const double t = x - x0;
+        level[d + kOut] += (1.0 - t) * luminance.At(x0, y) + t * luminance.At(x0 + 1, y);
+      }
+      ++rows;
+    }
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    if (rows < 3) return nan;
+    for (double& v : level) v /= rows;
+    const double outside = 0.5 * (level[0] + level[1]);
+    const double inside = 0.5 * (level[kOut + kIn] + level[kOut + kIn - 1]);
+    const double step = inside - outside;
+    if (!(std::fabs(step) > 8.0 * noise / std::sqrt(static_cast<double>(rows)))) return nan;
+    auto crossing = [&](double share) {
+      const double at = outside + share * step;
+      for (std::size_t i = 1; i < level.size(); ++i) {
+        if ((level[i - 1] - at) * (level[i] - at) <= 0.0 && level[i] != level[i - 1]) {
+          return (i - 1) + (at - level[i - 1]) / (level[i] - level[i - 1]);
+        }
+      }
+      return nan;
+    };
+    return crossing(0.8) - crossing(0.2);
+  };
+  const double phi = lobe_azimuth(g);
+  const double miss = std::fabs(phi - half_alpha);
+  bool shadow_seen = false;
+  const bool shadow_flat = shadow_is_flat(g, &shadow_seen);
+  // Only a body seen in shadow has a level to stand apart from.
+  const bool edge_is_limb = !shadow_seen || unlit_edge_meets_background(g);
+  if (!edge_is_limb) shadow_seen = false;
+  const bool flat = shadow_flat && unlit_edge_is_smooth(g) && edge_is_limb;
+  // With the unlit limb in shadow, an edge there that rises far more
+  // slowly than the lit limb is a terminator: at α = −16° (640×480, a
+  // Lambertian body as dark as the background) it stood 12 px inside the
+  // limb, which put the lobe 1° off and called a sawtooth a sinusoid.
+  // Unless the terminator is seen where the phase angle puts it inside
+  // this cylinder: direct light beginning there (TerminatorSeen) makes the
+  // edge beyond the body in shadow its limb, however soft that limb's
+  // rise (a stray-lit body darkens toward its limb as the surface turns
+  // from the diffuse light).
+  bool soft_unlit = false;
+  if (std::fabs(options.phase_angle_rad) >= kShadowedLimbRad) {
+    const int light_side = options.phase_angle_rad > 0 ? 1 : -1;
+    const double lit_rise = edge_rise_px(g, light_side);
+    const double unlit_rise = edge_rise_px(g, -light_side);
+    soft_unlit = std::isfinite(unlit_rise) &&
+                 unlit_rise > kSoftEdgePx + (std::isfinite(lit_rise) ? lit_rise : 0.0) &&
+                 !TerminatorSeen(mean_profile, region, g, options, noise, mean_rows);
+  }
+  std::string why_not_inferred;
+  // A lobe off α/2 alone does not make the unlit edge a terminator when
+  // the body is seen in shadow inside it: a sawtooth m = 0.47 at −95°, its
+  // outer caustic 6 px inside the lit limb (beyond the columns the lobe is
+  // looked for in), stood 25° off by its inner caustic alone, and a dark
+  // limb inferred 300 px out made the lobe "fit".
+  const bool off_lobe = miss > options.min_lobe_offset_to_infer_rad && !shadow_seen;
+  if (off_lobe || !flat || soft_unlit) {
+    // The edge away from the light may be a soft terminator: the tilt is
+    // the lit limb's alone.
+    const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
+    const bool unlit_moved = options.phase_angle_rad > 0 ? reseeded.left : reseeded.right;
+    const Line& other =
+        unlit_moved ? (options.phase_angle_rad > 0 ? reseeded.left_bands : reseeded.right_bands)
+                    : (options.phase_angle_rad > 0 ? final_left : final_right);
+    CylinderGeometry edges = g;
+    edges.axis_angle_rad = std::atan(-lit.slope);
+    edges.center_x_px = 0.5 * (lit.at_center + other.at_center);
+    edges.radius_px = 0.5 * std::fabs(lit.at_center - other.at_center) * std::cos(edges.axis_angle_rad);
+    absl::StatusOr<CylinderGeometry> inferred = InferDarkLimb(
+        luminance, edges, options.phase_angle_rad, options.projection, {background, noise});
+    if (inferred.ok()) {
+      const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
+      if ((!flat || soft_unlit || inferred_miss < 0.5 * miss) &&
+          inferred_miss <= options.min_lobe_offset_to_infer_rad) {
+        const bool right_lit = options.phase_angle_rad > 0;
+        SetRadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx,
+                        final_right, right_lit ? kLimbSystematicPx : kInferredLimbPx,
+                        &*inferred);
+        return *inferred;
+      }
+      why_not_inferred = absl::StrCat(
+          "; with the unlit edge taken as the terminator the lobe lies at ",
+          std::lround(lobe_azimuth(*inferred) * 180.0 / M_PI), " deg");
+    } else {
+      why_not_inferred = absl::StrCat("; no dark limb could be inferred: ",
+                                      inferred.status().message());
+    }
+  }
+  if (!flat) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no cylinder found consistent with the phase angle: the surface between the edge "
+        "away from the light and the terminator (", std::lround(options.phase_angle_rad * 180.0 / M_PI),
+        " deg light) is not dark, so that edge is not a limb", why_not_inferred));
+  }
+  if (miss > options.max_lobe_offset_rad) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "no cylinder found consistent with the phase angle: the brightest part of "
+        "what was found lies at azimuth ", std::lround(phi * 180.0 / M_PI),
+        " deg, not near half the phase angle (", std::lround(half_alpha * 180.0 / M_PI),
+        " deg); check the phase angle and its sign (positive = light on the image's "
+        "right)", why_not_inferred));
+  }
+  return g;
+}
+
 // DetectCylinder with `side_fraction` of the region's width at each side
 // taken as background. With `shadow_is_limb`, the edge away from the light is
 // known to be a limb (a first pass saw both): its lens blur proposal counts
@@ -1805,263 +2091,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     SetRadiusStderr(l, left_systematic_px, r, right_systematic_px, &g, left_through_blur_px,
                     right_through_blur_px);
   }
-  // With the phase angle known, the lobe must stand near the mirror azimuth
-  // α/2. When it does not, the edge on the side away from the light may be
-  // the terminator, the limb beyond it lost in darkness: infer that limb
-  // (terminator.h) and keep the cylinder whose lobe stands at α/2.
   if (std::isfinite(options.phase_angle_rad)) {
-    const double half_alpha = options.phase_angle_rad / 2.0;
-    // Where the lobe stands: the mean azimuth of its two ends. A split
-    // lobe's caustics lie symmetric about the mirror azimuth, whichever is
-    // the brighter. (The centroid of the brightest columns, used before,
-    // took a seen limb for a dark one under a wide lobe:
-    // DetectionCasesTest.WideSplitLobeKeepsBothSeenLimbs.)
-    auto lobe_azimuth = [&](const CylinderGeometry& c) {
-      const double half = c.radius_px / std::cos(c.axis_angle_rad);
-      const auto [first, last] = BrightExtent(mean_profile, region.x, c.center_x_px - 0.9 * half,
-                                              c.center_x_px + 0.9 * half);
-      if (!std::isfinite(first)) return half_alpha;
-      auto azimuth = [&](double x) {
-        return AzimuthFromOffset(std::clamp((x - c.center_x_px) / half, -1.0, 1.0),
-                                 options.projection);
-      };
-      return 0.5 * (azimuth(first) + azimuth(last));
-    };
-    // The part of the disc in shadow, from the unlit limb to the terminator
-    // φ_T = α − sign(α)·90° (with a margin for blur and the tilt's smear of
-    // the column means), can only show the body's ambient level: no
-    // Lambertian, scatter or glint reaches it (DESIGN.md §3). A rise there
-    // means the edge taken for the unlit limb is the terminator or beyond.
-    // `seen`, when given, is set when the shadow is flat and stands clearly
-    // above the background: a body seen in its own shadow, whose edge is its
-    // limb (a terminator is taken for a limb only where the body beyond it
-    // is as dark as the background).
-    double shadow_level = std::numeric_limits<double>::quiet_NaN();
-    auto shadow_is_flat = [&](const CylinderGeometry& c, bool* seen = nullptr) {
-      if (seen != nullptr) *seen = false;
-      const int side = options.phase_angle_rad > 0 ? 1 : -1;
-      const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
-      const double half = c.radius_px / std::cos(c.axis_angle_rad);
-      const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
-      const double margin = 3.0 * M_PI / 180.0;
-      const double x_dark = c.center_x_px - side * half;
-      const double x_term = c.center_x_px + OffsetFromAzimuth(phi_t - side * margin, options.projection) * half;
-      const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_term) + smear)) - region.x;
-      const int hi = static_cast<int>(std::floor(std::max(x_dark, x_term) - smear)) - region.x;
-      if (hi - lo < 4) return true;
-      std::vector<double> values;
-      for (int x = std::max(lo, 2); x <= std::min(hi, region.width - 3); ++x) {
-        double v = 0.0;
-        for (int k = -2; k <= 2; ++k) v += mean_profile[x + k];
-        values.push_back(v / 5.0);
-      }
-      if (values.size() < 4) return true;
-      std::sort(values.begin(), values.end());
-      // The scale: the surface's typical level over the disc (a maximum
-      // would be a clipped glint's).
-      std::vector<double> disc;
-      for (int x = static_cast<int>(std::ceil(c.center_x_px - half)) - region.x;
-           x <= static_cast<int>(std::floor(c.center_x_px + half)) - region.x; ++x) {
-        if (x >= 0 && x < region.width) disc.push_back(std::fabs(mean_profile[x] - background));
-      }
-      const double typical = disc.empty() ? 0.0 : Median(disc);
-      const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
-      const ShadowOnset onset =
-          FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
-                          options.projection, 6.0 * column_noise);
-      const bool flat = !onset.lit;
-      if (seen != nullptr) {
-        shadow_level = values[values.size() / 2];
-        const double level = shadow_level - background;
-        *seen = flat && std::fabs(level) > std::max(kSeenShadowSigmas * column_noise,
-                                                    kSeenShadowShare * typical);
-      }
-      return flat;
-    };
-    // Just inside the unlit limb the surface is in shadow (|α| ≥ 20°): its
-    // pixels vary across rows by the noise and the cloth's texture, not by
-    // the comb of glints an edge of the specular lobe shows.
-    auto unlit_edge_is_smooth = [&](const CylinderGeometry& c) {
-      if (std::fabs(options.phase_angle_rad) < 20.0 * M_PI / 180.0) return true;
-      const int side = options.phase_angle_rad > 0 ? 1 : -1;
-      const double half = c.radius_px / std::cos(c.axis_angle_rad);
-      std::vector<double> spreads;
-      std::vector<double> levels;
-      for (int k = 1; k <= 5; ++k) {
-        double sum = 0.0;
-        double sum_sq = 0.0;
-        int n = 0;
-        for (int y = c.top_row; y <= c.bottom_row; ++y) {
-          const int x = static_cast<int>(std::lround(c.AxisColumn(y) - side * (half - k)));
-          if (x < 0 || x >= luminance.width) continue;
-          const double v = luminance.At(x, y);
-          sum += v;
-          sum_sq += v * v;
-          ++n;
-        }
-        if (n < 3) continue;
-        const double mean = sum / n;
-        spreads.push_back(std::sqrt(std::max(0.0, sum_sq / n - mean * mean)));
-        levels.push_back(std::fabs(mean - background));
-      }
-      if (spreads.empty()) return true;
-      return Median(spreads) < 4.0 * noise + 0.3 * Median(levels);
-    };
-    // A limb is where the body meets the background: just beyond the edge
-    // taken for the unlit limb (4-10 px out, past a lens blur of a pixel or
-    // two, whose tail there is a few per cent of the step) the level must
-    // lie within kLimbOutsideShare of the way from the background (the strip
-    // on that side, for its gradient) to the body seen in shadow. Under stray
-    // light the body darkens toward its limb gradually (the diffuse light
-    // falls off as the surface turns away), and an edge found on that
-    // roll-off, the body continuing beyond it, is not the limb.
-    auto unlit_edge_meets_background = [&](const CylinderGeometry& c) {
-      if (!std::isfinite(shadow_level)) return true;
-      const int unlit = options.phase_angle_rad > 0 ? -1 : 1;
-      const double half = c.radius_px / std::cos(c.axis_angle_rad);
-      // Over the usable rows only: the ends' mount may stand beside the others.
-      const int from = region.x + (unlit < 0 ? 0 : region.width - side);
-      const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
-      std::vector<double> strip;
-      for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-        for (int x = from; x < from + side; ++x) strip.push_back(luminance.At(x, y));
-      }
-      if (strip.empty()) return true;
-      const double local_background = Median(strip);
-      double sum = 0.0;
-      int n = 0;
-      for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-        for (int d = 4; d <= 10; ++d) {
-          const int x = static_cast<int>(std::lround(c.AxisColumn(y) + unlit * (half + d)));
-          if (x < region.x || x >= region.x + region.width) continue;
-          sum += luminance.At(x, y);
-          ++n;
-        }
-      }
-      if (n == 0) return true;
-      return !(std::fabs(sum / n - local_background) >
-               kLimbOutsideShare * std::fabs(shadow_level - local_background));
-    };
-    // The 20-80 % rise of an edge, px, from the mean over the usable rows
-    // of each row's pixels at a distance d inside it (along the row, the
-    // axis's tilt followed): a limb is a step blurred by the lens, a
-    // terminator taken for one a ramp (the Lambertian term grows from zero
-    // there). NaN when the edge has too little contrast to measure.
-    auto edge_rise_px = [&](const CylinderGeometry& c, int side) {
-      const double half = c.radius_px / std::cos(c.axis_angle_rad);
-      const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
-      constexpr int kOut = 4, kIn = 14;
-      std::vector<double> level(kOut + kIn + 1, 0.0);
-      int rows = 0;
-      for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-        const double edge = c.AxisColumn(y) + side * half;  // side −1: left
-        const double x_lo = edge - side * kIn, x_hi = edge + side * kOut;
-        if (std::min(x_lo, x_hi) < 0 || std::max(x_lo, x_hi) > luminance.width - 2) continue;
-        for (int d = -kOut; d <= kIn; ++d) {
-          const double x = edge - side * d;
-          const int x0 = static_cast<int>(std::floor(x));
-          const double t = x - x0;
-          level[d + kOut] += (1.0 - t) * luminance.At(x0, y) + t * luminance.At(x0 + 1, y);
-        }
-        ++rows;
-      }
-      const double nan = std::numeric_limits<double>::quiet_NaN();
-      if (rows < 3) return nan;
-      for (double& v : level) v /= rows;
-      const double outside = 0.5 * (level[0] + level[1]);
-      const double inside = 0.5 * (level[kOut + kIn] + level[kOut + kIn - 1]);
-      const double step = inside - outside;
-      if (!(std::fabs(step) > 8.0 * noise / std::sqrt(static_cast<double>(rows)))) return nan;
-      auto crossing = [&](double share) {
-        const double at = outside + share * step;
-        for (std::size_t i = 1; i < level.size(); ++i) {
-          if ((level[i - 1] - at) * (level[i] - at) <= 0.0 && level[i] != level[i - 1]) {
-            return (i - 1) + (at - level[i - 1]) / (level[i] - level[i - 1]);
-          }
-        }
-        return nan;
-      };
-      return crossing(0.8) - crossing(0.2);
-    };
-    const double phi = lobe_azimuth(g);
-    const double miss = std::fabs(phi - half_alpha);
-    bool shadow_seen = false;
-    const bool shadow_flat = shadow_is_flat(g, &shadow_seen);
-    // Only a body seen in shadow has a level to stand apart from.
-    const bool edge_is_limb = !shadow_seen || unlit_edge_meets_background(g);
-    if (!edge_is_limb) shadow_seen = false;
-    const bool flat = shadow_flat && unlit_edge_is_smooth(g) && edge_is_limb;
-    // With the unlit limb in shadow, an edge there that rises far more
-    // slowly than the lit limb is a terminator: at α = −16° (640×480, a
-    // Lambertian body as dark as the background) it stood 12 px inside the
-    // limb, which put the lobe 1° off and called a sawtooth a sinusoid.
-    // Unless the terminator is seen where the phase angle puts it inside
-    // this cylinder: direct light beginning there (TerminatorSeen) makes the
-    // edge beyond the body in shadow its limb, however soft that limb's
-    // rise (a stray-lit body darkens toward its limb as the surface turns
-    // from the diffuse light).
-    bool soft_unlit = false;
-    if (std::fabs(options.phase_angle_rad) >= kShadowedLimbRad) {
-      const int light_side = options.phase_angle_rad > 0 ? 1 : -1;
-      const double lit_rise = edge_rise_px(g, light_side);
-      const double unlit_rise = edge_rise_px(g, -light_side);
-      soft_unlit = std::isfinite(unlit_rise) &&
-                   unlit_rise > kSoftEdgePx + (std::isfinite(lit_rise) ? lit_rise : 0.0) &&
-                   !TerminatorSeen(mean_profile, region, g, options, noise, mean_rows);
-    }
-    std::string why_not_inferred;
-    // A lobe off α/2 alone does not make the unlit edge a terminator when
-    // the body is seen in shadow inside it: a sawtooth m = 0.47 at −95°, its
-    // outer caustic 6 px inside the lit limb (beyond the columns the lobe is
-    // looked for in), stood 25° off by its inner caustic alone, and a dark
-    // limb inferred 300 px out made the lobe "fit".
-    const bool off_lobe = miss > options.min_lobe_offset_to_infer_rad && !shadow_seen;
-    if (off_lobe || !flat || soft_unlit) {
-      // The edge away from the light may be a soft terminator: the tilt is
-      // the lit limb's alone.
-      const Line& lit = options.phase_angle_rad > 0 ? final_right : final_left;
-      const bool unlit_moved = options.phase_angle_rad > 0 ? reseeded.left : reseeded.right;
-      const Line& other =
-          unlit_moved ? (options.phase_angle_rad > 0 ? reseeded.left_bands : reseeded.right_bands)
-                      : (options.phase_angle_rad > 0 ? final_left : final_right);
-      CylinderGeometry edges = g;
-      edges.axis_angle_rad = std::atan(-lit.slope);
-      edges.center_x_px = 0.5 * (lit.at_center + other.at_center);
-      edges.radius_px = 0.5 * std::fabs(lit.at_center - other.at_center) * std::cos(edges.axis_angle_rad);
-      absl::StatusOr<CylinderGeometry> inferred = InferDarkLimb(
-          luminance, edges, options.phase_angle_rad, options.projection, {background, noise});
-      if (inferred.ok()) {
-        const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
-        if ((!flat || soft_unlit || inferred_miss < 0.5 * miss) &&
-            inferred_miss <= options.min_lobe_offset_to_infer_rad) {
-          const bool right_lit = options.phase_angle_rad > 0;
-          SetRadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx,
-                          final_right, right_lit ? kLimbSystematicPx : kInferredLimbPx,
-                          &*inferred);
-          return *inferred;
-        }
-        why_not_inferred = absl::StrCat(
-            "; with the unlit edge taken as the terminator the lobe lies at ",
-            std::lround(lobe_azimuth(*inferred) * 180.0 / M_PI), " deg");
-      } else {
-        why_not_inferred = absl::StrCat("; no dark limb could be inferred: ",
-                                        inferred.status().message());
-      }
-    }
-    if (!flat) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "no cylinder found consistent with the phase angle: the surface between the edge "
-          "away from the light and the terminator (", std::lround(options.phase_angle_rad * 180.0 / M_PI),
-          " deg light) is not dark, so that edge is not a limb", why_not_inferred));
-    }
-    if (miss > options.max_lobe_offset_rad) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "no cylinder found consistent with the phase angle: the brightest part of "
-          "what was found lies at azimuth ", std::lround(phi * 180.0 / M_PI),
-          " deg, not near half the phase angle (", std::lround(half_alpha * 180.0 / M_PI),
-          " deg); check the phase angle and its sign (positive = light on the image's "
-          "right)", why_not_inferred));
-    }
+    return CheckAgainstPhase({luminance, region, mean_profile, background, noise, mean_rows, side,
+                              options},
+                             g, final_left, final_right, reseeded);
   }
   return g;
 }
