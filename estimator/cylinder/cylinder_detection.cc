@@ -1475,7 +1475,10 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
     return absl::InvalidArgumentError(absl::StrCat(
         "no cylinder found consistent with the phase angle: the surface between the edge "
         "away from the light and the terminator (", std::lround(options.phase_angle_rad * 180.0 / M_PI),
-        " deg light) is not dark, so that edge is not a limb", why_not_inferred));
+        " deg light) shows direct light, not stray light alone, so that edge is not a limb "
+        "(check the phase angle and its sign; a background as bright as the body's unlit "
+        "side hides its limb: darken or lighten the background, or give the cylinder)",
+        why_not_inferred));
   }
   if (miss > options.max_lobe_offset_rad) {
     return absl::InvalidArgumentError(absl::StrCat(
