@@ -131,6 +131,10 @@ int RunEstimates(EstimateFlags flags) {
       }
       absl::StatusOr<v1::EstimateReply> estimated =
           EstimateInProcess(*header, *bytes, flags.profile_csv);
+      if (!estimated.ok() && !flags.plot_dir.empty()) {
+        ReportRefusalPlot(flags.plot_dir, plot_names[index], image, *bytes, *header,
+                          estimated.status());
+      }
       if (estimated.ok() && series->given) AddSeriesNote(series->notes[index], &*estimated);
       if (estimated.ok() && !flags.plot_dir.empty()) {
         if (absl::Status s = PlotInto(flags.plot_dir, plot_names[index], image, *bytes, &*estimated);

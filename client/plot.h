@@ -10,6 +10,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "estimator/cylinder/cylinder_detection.h"
 #include "weavefit/v1/weavefit.pb.h"
 
 namespace weavefit {
@@ -44,6 +45,34 @@ std::vector<std::string> PlotFileNames(const std::vector<std::string>& images);
 absl::Status PlotInto(const std::string& dir, const std::string& file_name,
                       const std::string& image, const std::string& image_bytes,
                       v1::EstimateReply* reply);
+
+// The picture of a refused photograph, for `--plot DIR`: detection is run
+// again here on `image_bytes` with the header's acquisition (as the daemon
+// or the in-process estimate ran it, DetectCylinderInBytes) and, when it
+// refuses, DIR/`file_name` shows what it saw (WriteDetectionPlot). Writes
+// nothing, and returns false, when the refusal came after detection, the
+// header gives the cylinder, or `refusal` is not INVALID_ARGUMENT; true
+// when written. Errors are the plot's own.
+absl::StatusOr<bool> PlotRefusalInto(const std::string& dir, const std::string& file_name,
+                                     const std::string& image, const std::string& image_bytes,
+                                     const v1::RequestHeader& header,
+                                     const absl::Status& refusal);
+
+// PlotRefusalInto for `estimate` and `submit`: says on stderr what it wrote
+// or why it could not (a refusal's own error is the caller's to report).
+void ReportRefusalPlot(const std::string& dir, const std::string& file_name,
+                       const std::string& image, const std::string& image_bytes,
+                       const v1::RequestHeader& header, const absl::Status& refusal);
+
+// What detection saw, drawn to `png_path`: the column means over all rows
+// (whole, and near the background), the side strips read as background,
+// the edges all rows placed, each cylinder tried with its limbs and the
+// figures that judged it, `message` (the refusal), and beside it the
+// photograph, contrast-stretched, with each band's edges and each
+// cylinder's limbs drawn. The file appears complete or not at all.
+absl::Status WriteDetectionPlot(const DetectionTrace& trace, const std::string& image_bytes,
+                                const std::string& title, const std::string& message,
+                                const std::string& png_path);
 
 }  // namespace weavefit
 

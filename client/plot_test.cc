@@ -69,6 +69,43 @@ TEST(FitPlotTest, WritesChartAndThumbnailSideBySide) {
             absl::StatusCode::kFailedPrecondition);
 }
 
+// A photograph refused at detection (the phase angle's sign wrong): the
+// picture of what detection saw, chart and stretched photograph side by
+// side; nothing for a refusal that is not detection's.
+TEST(RefusalPlotTest, ARefusalAtDetectionIsDrawnAndNothingElseIs) {
+  const std::string image = std::string(FIXTURES_DIR) + "/gauze_sinusoid_p60.png";
+  const std::string bytes = Read(image);
+  v1::RequestHeader header;
+  header.mutable_acquisition()->set_phase_angle_deg(-60.0);
+  const std::string dir = testing::MakeTempDir() + "/plots";
+  const absl::Status refusal = absl::InvalidArgumentError("no cylinder found");
+  absl::StatusOr<bool> written =
+      PlotRefusalInto(dir, "refused.png", image, bytes, header, refusal);
+  ASSERT_TRUE(written.ok()) << written.status();
+  EXPECT_TRUE(*written);
+  const cv::Mat plot = cv::imread(dir + "/refused.png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(plot.empty());
+  EXPECT_EQ(plot.rows, 760 + 140);
+  EXPECT_GT(plot.cols, 1100 + 300) << "chart plus the photograph";
+  // The right phase angle: detection finds the cylinder, nothing is drawn.
+  header.mutable_acquisition()->set_phase_angle_deg(60.0);
+  written = PlotRefusalInto(dir, "found.png", image, bytes, header, refusal);
+  ASSERT_TRUE(written.ok()) << written.status();
+  EXPECT_FALSE(*written);
+  EXPECT_TRUE(cv::imread(dir + "/found.png").empty());
+  // Not an argument error (a daemon gone): nothing either.
+  header.mutable_acquisition()->set_phase_angle_deg(-60.0);
+  written = PlotRefusalInto(dir, "gone.png", image, bytes, header,
+                            absl::UnavailableError("daemon gone"));
+  ASSERT_TRUE(written.ok());
+  EXPECT_FALSE(*written);
+  // A given cylinder: detection did not run.
+  header.mutable_acquisition()->mutable_given_cylinder()->set_radius_px(100.0);
+  written = PlotRefusalInto(dir, "given.png", image, bytes, header, refusal);
+  ASSERT_TRUE(written.ok());
+  EXPECT_FALSE(*written);
+}
+
 TEST(PlotFileNamesTest, DistinctWithinTheBatchAndStable) {
   // Unique stems keep the plain stem.
   EXPECT_EQ(PlotFileNames({"a/x.png", "b/y.tiff", "z.exr"}),

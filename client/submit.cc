@@ -378,7 +378,11 @@ int RunSubmit(SubmitFlags flags) {
     if (series->given) {
       *header->mutable_acquisition()->mutable_given_cylinder() = *series->given;
     }
+    const v1::RequestHeader sent = *header;
     absl::StatusOr<v1::EstimateReply> reply = client->Estimate(*std::move(header), *bytes);
+    if (!reply.ok() && !flags.plot_dir.empty()) {
+      ReportRefusalPlot(flags.plot_dir, plot_names[todo[k]], image, *bytes, sent, reply.status());
+    }
     if (reply.ok() && series->given) AddSeriesNote(series->notes[todo[k]], &*reply);
     if (reply.ok() && !flags.plot_dir.empty()) {
       if (absl::Status s = PlotInto(flags.plot_dir, plot_names[todo[k]], image, *bytes, &*reply);

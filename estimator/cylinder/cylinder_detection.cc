@@ -17,6 +17,7 @@
 #include "estimator/stats/median.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 namespace weavefit {
 namespace {
@@ -934,6 +935,9 @@ struct Reseeded {
   bool right = false;
   Line left_bands;
   Line right_bands;
+  // Where all rows placed each limb at center_row (image columns; NaN: none).
+  double all_left = std::numeric_limits<double>::quiet_NaN();
+  double all_right = std::numeric_limits<double>::quiet_NaN();
 };
 Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, double center_row,
                           int side, double noise, const CylinderDetectionOptions& options,
@@ -964,6 +968,8 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   const BandLimbs all = FindShearedLimbs(luminance, region, rows, slope, center_row, side, noise,
                                          static_cast<int>(2 * options.min_radius_px));
   if (!all.found) return moved;
+  moved.all_left = region.x + all.left_cross;
+  moved.all_right = region.x + all.right_cross;
   // Inward only where no step fired within kReseedPx of the bands' line (a
   // step that fired there but broke further in is the limb's, its break
   // drawn in by glints or texture beside it).
@@ -1219,19 +1225,20 @@ struct SeenPhotograph {
 // the terminator, the limb beyond it lost in darkness: infer that limb
 // (terminator.h) and keep the cylinder whose lobe stands at α/2. `g` is
 // the cylinder of both limbs seen, through the limb lines final_left and
-// final_right; `reseeded` says which limbs all rows placed.
+// final_right; `reseeded` says which limbs all rows placed. The cylinders
+// tried, with the figures that judged them, go to `trace` when given.
 absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
                                                    const CylinderGeometry& g,
                                                    const Line& final_left,
                                                    const Line& final_right,
-                                                   const Reseeded& reseeded) {
+                                                   const Reseeded& reseeded,
+                                                   DetectionTrace* trace) {
   const Image& luminance = seen.luminance;
   const PixelRegion& region = seen.region;
   const std::vector<double>& mean_profile = seen.mean_profile;
   const double background = seen.background;
   const double noise = seen.noise;
   const int mean_rows = seen.mean_rows;
-  const int side = seen.side;
   const CylinderDetectionOptions& options = seen.options;
   const double half_alpha = options.phase_angle_rad / 2.0;
   // Where the lobe stands: the mean azimuth of its two ends. A split
@@ -1259,7 +1266,87 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
   // above the background: a body seen in its own shadow, whose edge is its
   // limb (a terminator is taken for a limb only where the body beyond it
   // is as dark as the background).
+  // The background just beside the unlit limb, kBesidePx out, over the
+  // cylinder's usable rows (the ends' mount may stand beside the others). A
+  // gradient across the frame (a lit backdrop) and vignetting move the
+  // background's level between a side strip and the limb by as much as a
+  // dim body stands from it. Two models of it:
+  //  - the trend beyond the edge: a quadratic (gradient and vignetting)
+  //    through the mean levels kTrendFromPx..kTrendToPx outside it along
+  //    each row, carried in to kBesidePx. It holds only where those columns
+  //    are background: when the edge is not the limb they hold the body
+  //    (its texture, its roll-off, the limb's step), whose residuals stand
+  //    out of the means' noise: their mean square more than kPlainChi2Sigmas
+  //    standard deviations of χ²/dof above 1, with kNoiseAllowance for the
+  //    noise estimate's own error (a few per cent from the strip's MAD)
+  //    and mildly correlated noise;
+  //  - otherwise the line through the two side strips' medians.
+  constexpr int kBesidePx = 7, kTrendFromPx = 12, kTrendToPx = 200;
+  constexpr double kPlainChi2Sigmas = 4.0, kNoiseAllowance = 1.1;
+  const int strip = seen.side;
+  auto unlit_background = [&](const CylinderGeometry& c) {
+    const int unlit = options.phase_angle_rad > 0 ? -1 : 1;
+    const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+    const double half = c.radius_px / std::cos(c.axis_angle_rad);
+    std::vector<double> sum(kTrendToPx + 1, 0.0);
+    std::vector<int> count(kTrendToPx + 1, 0);
+    int rows = 0;
+    for (int y = c.top_row; y <= c.bottom_row; y += row_step, ++rows) {
+      const double limb = c.AxisColumn(y) + unlit * half;
+      for (int d = kTrendFromPx; d <= kTrendToPx; ++d) {
+        const int x = static_cast<int>(std::lround(limb + unlit * d));
+        if (x < region.x || x >= region.x + region.width) break;
+        sum[d] += luminance.At(x, y);
+        ++count[d];
+      }
+    }
+    std::vector<std::vector<double>> basis(3);
+    std::vector<double> level;
+    for (int d = kTrendFromPx; d <= kTrendToPx; ++d) {
+      if (count[d] < rows || rows == 0) continue;
+      const double u = (d - kBesidePx) / static_cast<double>(kTrendToPx);
+      basis[0].push_back(1.0);
+      basis[1].push_back(u);
+      basis[2].push_back(u * u);
+      level.push_back(sum[d] / count[d]);
+    }
+    auto strip_values = [&](int from) {
+      std::vector<double> values;
+      for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+        for (int x = from; x < from + strip; ++x) values.push_back(luminance.At(x, y));
+      }
+      return values;
+    };
+    const std::vector<double> lefts = strip_values(region.x);
+    const std::vector<double> rights = strip_values(region.x + region.width - strip);
+    if (lefts.empty() || rights.empty()) return std::numeric_limits<double>::quiet_NaN();
+    const double left = Median(lefts);
+    const double right = Median(rights);
+    // The noise of one pixel from the unlit side's strip about its own
+    // median (the detector's `noise` pools both strips about one level,
+    // which a gradient inflates).
+    std::vector<double> deviations;
+    for (double v : unlit < 0 ? lefts : rights) {
+      deviations.push_back(std::fabs(v - (unlit < 0 ? left : right)));
+    }
+    const double pixel_noise = 1.4826 * Median(deviations);
+    std::vector<double> coefficients;
+    const double rss = level.size() >= 16 ? LeastSquaresRss(basis, level, &coefficients)
+                                          : std::numeric_limits<double>::infinity();
+    const double mean_noise = pixel_noise / std::sqrt(std::max(rows, 1));
+    const double dof = static_cast<double>(level.size()) - 3.0;
+    if (std::isfinite(rss) &&
+        rss / dof <= kNoiseAllowance * kNoiseAllowance * mean_noise * mean_noise *
+                         (1.0 + kPlainChi2Sigmas * std::sqrt(2.0 / dof))) {
+      return coefficients[0];  // u = 0 at kBesidePx
+    }
+    const double x_left = region.x + 0.5 * (strip - 1);
+    const double x_right = region.x + region.width - 0.5 * (strip + 1);
+    const double x = c.center_x_px + unlit * (half + kBesidePx);
+    return left + (right - left) * (x - x_left) / std::max(1.0, x_right - x_left);
+  };
   double shadow_level = std::numeric_limits<double>::quiet_NaN();
+  ShadowOnset shadow_onset;  // the last shadow judged, for the trace
   auto shadow_is_flat = [&](const CylinderGeometry& c, bool* seen = nullptr) {
     if (seen != nullptr) *seen = false;
     const int side = options.phase_angle_rad > 0 ? 1 : -1;
@@ -1293,9 +1380,11 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
         FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
                         options.projection, 6.0 * column_noise);
     const bool flat = !onset.lit;
+    shadow_onset = onset;
     if (seen != nullptr) {
       shadow_level = values[values.size() / 2];
-      const double level = shadow_level - background;
+      const double beside = unlit_background(c);
+      const double level = shadow_level - (std::isfinite(beside) ? beside : background);
       *seen = flat && std::fabs(level) > std::max(kSeenShadowSigmas * column_noise,
                                                   kSeenShadowShare * typical);
     }
@@ -1342,19 +1431,13 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
     if (!std::isfinite(shadow_level)) return true;
     const int unlit = options.phase_angle_rad > 0 ? -1 : 1;
     const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    // Over the usable rows only: the ends' mount may stand beside the others.
-    const int from = region.x + (unlit < 0 ? 0 : region.width - side);
     const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
-    std::vector<double> strip;
-    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-      for (int x = from; x < from + side; ++x) strip.push_back(luminance.At(x, y));
-    }
-    if (strip.empty()) return true;
-    const double local_background = Median(strip);
+    const double local_background = unlit_background(c);
+    if (!std::isfinite(local_background)) return true;
     double sum = 0.0;
     int n = 0;
     for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-      for (int d = 4; d <= 10; ++d) {
+      for (int d = kBesidePx - 3; d <= kBesidePx + 3; ++d) {
         const int x = static_cast<int>(std::lround(c.AxisColumn(y) + unlit * (half + d)));
         if (x < region.x || x >= region.x + region.width) continue;
         sum += luminance.At(x, y);
@@ -1413,7 +1496,9 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
   // Only a body seen in shadow has a level to stand apart from.
   const bool edge_is_limb = !shadow_seen || unlit_edge_meets_background(g);
   if (!edge_is_limb) shadow_seen = false;
-  const bool flat = shadow_flat && unlit_edge_is_smooth(g) && edge_is_limb;
+  const bool smooth = unlit_edge_is_smooth(g);
+  const bool flat = shadow_flat && smooth && edge_is_limb;
+  const ShadowOnset both_limbs_onset = shadow_onset;
   // With the unlit limb in shadow, an edge there that rises far more
   // slowly than the lit limb is a terminator: at α = −16° (640×480, a
   // Lambertian body as dark as the background) it stood 12 px inside the
@@ -1424,15 +1509,45 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
   // rise (a stray-lit body darkens toward its limb as the surface turns
   // from the diffuse light).
   bool soft_unlit = false;
+  double lit_rise = std::numeric_limits<double>::quiet_NaN();
+  double unlit_rise = std::numeric_limits<double>::quiet_NaN();
   if (std::fabs(options.phase_angle_rad) >= kShadowedLimbRad) {
     const int light_side = options.phase_angle_rad > 0 ? 1 : -1;
-    const double lit_rise = edge_rise_px(g, light_side);
-    const double unlit_rise = edge_rise_px(g, -light_side);
+    lit_rise = edge_rise_px(g, light_side);
+    unlit_rise = edge_rise_px(g, -light_side);
     soft_unlit = std::isfinite(unlit_rise) &&
                  unlit_rise > kSoftEdgePx + (std::isfinite(lit_rise) ? lit_rise : 0.0) &&
                  !TerminatorSeen(mean_profile, region, g, options, noise, mean_rows);
   }
   std::string why_not_inferred;
+  auto degrees = [](double rad) { return absl::StrFormat("%.1f", rad * 180.0 / M_PI); };
+  // The figures that judge the cylinder of both edges taken for limbs.
+  std::string both_verdict = absl::StrCat(
+      "lobe at ", degrees(phi), " deg (half the phase angle ", degrees(half_alpha), ")");
+  if (both_limbs_onset.judged) {
+    absl::StrAppend(&both_verdict, both_limbs_onset.lit ? "; direct light in the shadow"
+                                                        : "; the shadow shows stray light only",
+                    absl::StrFormat(" (onset model better by %.0f in BIC, rise %.1f noise)",
+                                    both_limbs_onset.delta_bic,
+                                    both_limbs_onset.sigma > 0.0
+                                        ? both_limbs_onset.rise / both_limbs_onset.sigma
+                                        : 0.0));
+  }
+  if (!smooth) absl::StrAppend(&both_verdict, "; glints just inside the unlit edge");
+  if (!edge_is_limb) absl::StrAppend(&both_verdict, "; the body continues beyond the unlit edge");
+  if (std::isfinite(unlit_rise)) {
+    absl::StrAppend(&both_verdict, absl::StrFormat("; unlit edge rises over %.1f px, lit over %.1f px",
+                                                   unlit_rise, lit_rise));
+  }
+  if (soft_unlit) absl::StrAppend(&both_verdict, " (a terminator's ramp)");
+  auto note = [&](const std::string& name, const CylinderGeometry& c, bool kept,
+                  const std::string& verdict) {
+    if (trace != nullptr) trace->hypotheses.push_back({name, c, kept, verdict});
+  };
+  const std::string kBoth = "both edges are limbs";
+  const std::string kInferred = "unlit edge is the terminator, its limb inferred";
+  // Noted as rejected; set kept below when it is.
+  note(kBoth, g, false, both_verdict);
   // A lobe off α/2 alone does not make the unlit edge a terminator when
   // the body is seen in shadow inside it: a sawtooth m = 0.47 at −95°, its
   // outer caustic 6 px inside the lit limb (beyond the columns the lobe is
@@ -1461,21 +1576,34 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
         SetRadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx,
                         final_right, right_lit ? kLimbSystematicPx : kInferredLimbPx,
                         &*inferred);
+        note(kInferred, *inferred, true,
+             absl::StrCat("lobe at ", degrees(lobe_azimuth(*inferred)), " deg"));
         return *inferred;
       }
       why_not_inferred = absl::StrCat(
           "; with the unlit edge taken as the terminator the lobe lies at ",
           std::lround(lobe_azimuth(*inferred) * 180.0 / M_PI), " deg");
+      note(kInferred, *inferred, false,
+           absl::StrCat("lobe at ", degrees(lobe_azimuth(*inferred)), " deg, not within ",
+                        degrees(options.min_lobe_offset_to_infer_rad), " deg of ",
+                        degrees(half_alpha), (!flat || soft_unlit) ? "" : ", nor nearer than before"));
     } else {
       why_not_inferred = absl::StrCat("; no dark limb could be inferred: ",
                                       inferred.status().message());
+      note(kInferred, CylinderGeometry(), false, std::string(inferred.status().message()));
     }
   }
   if (!flat) {
+    // What the surface in shadow showed, the first failed check's words.
+    const std::string what =
+        !shadow_flat ? "shows direct light, not stray light alone"
+        : !smooth    ? "shows glints just inside that edge, as the lobe does, not a body in shadow"
+                     : "goes on beyond that edge at the level it has in shadow (stray light "
+                       "falling off toward the limb, not the limb)";
     return absl::InvalidArgumentError(absl::StrCat(
         "no cylinder found consistent with the phase angle: the surface between the edge "
         "away from the light and the terminator (", std::lround(options.phase_angle_rad * 180.0 / M_PI),
-        " deg light) shows direct light, not stray light alone, so that edge is not a limb "
+        " deg light) ", what, ", so that edge is not a limb "
         "(check the phase angle and its sign; a background as bright as the body's unlit "
         "side hides its limb: darken or lighten the background, or give the cylinder)",
         why_not_inferred));
@@ -1488,6 +1616,9 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
         " deg); check the phase angle and its sign (positive = light on the image's "
         "right)", why_not_inferred));
   }
+  if (trace != nullptr) {
+    for (DetectionTrace::Hypothesis& h : trace->hypotheses) h.kept = h.name == kBoth;
+  }
   return g;
 }
 
@@ -1498,7 +1629,8 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
 absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
                                                       const CylinderDetectionOptions& options,
                                                       double side_fraction,
-                                                      bool shadow_is_limb = false) {
+                                                      bool shadow_is_limb,
+                                                      DetectionTrace* trace) {
   if (luminance.channels != 1) {
     return absl::InvalidArgumentError("DetectCylinder needs a one-channel image");
   }
@@ -1611,6 +1743,20 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     bands_seen.push_back({row, limbs.left_cross, limbs.right_cross, band_radius, profile,
                           std::move(clipped), limbs.left_background, limbs.right_background,
                           y0, y1 - 1});
+  }
+  if (trace != nullptr) {
+    *trace = DetectionTrace();
+    trace->region = region;
+    trace->side_px = side;
+    trace->column_means = mean_profile;
+    for (double& v : trace->column_means) v /= std::max(mean_rows, 1);
+    trace->left_background = left_background;
+    trace->right_background = right_background;
+    trace->noise = noise;
+    trace->phase_angle_rad = options.phase_angle_rad;
+    for (const BandEdges& b : bands_seen) {
+      trace->band_edges.push_back({b.row, region.x + b.left_cross, region.x + b.right_cross});
+    }
   }
   // Each limb to a fraction of a pixel (RefineEdge), twice: the grazing
   // scatter's strength S is the same along a limb, so the second pass holds
@@ -1831,6 +1977,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   }
   const Reseeded reseeded =
       ReseedFaintLimbs(luminance, region, center_row, side, noise, options, &bands_seen);
+  if (trace != nullptr) {
+    trace->all_rows_left_x = reseeded.all_left;
+    trace->all_rows_right_x = reseeded.all_right;
+  }
   left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN());
   right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN());
   // The held S is one number for the whole limb, so its own noise moves every
@@ -2011,8 +2161,16 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   g.unused_blur_px = unused_blur_px;
   g.left_observed = true;
   g.right_observed = true;
+  // The cylinder of both edges taken for limbs, in the trace: its verdict is
+  // the first check it fails (CheckAgainstPhase adds its own).
+  auto refuse = [&](const std::string& why) {
+    if (trace != nullptr) {
+      trace->hypotheses.push_back({"both edges are limbs", g, false, why});
+    }
+    return absl::InvalidArgumentError(why);
+  };
   if (g.radius_px < options.min_radius_px) {
-    return absl::InvalidArgumentError("no cylinder found: limbs too close together");
+    return refuse("no cylinder found: limbs too close together");
   }
   for (double& v : mean_profile) v /= std::max(mean_rows, 1);
   // The surface between the two edges must be continuous: edges found on
@@ -2022,7 +2180,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
                                           mean_rows, options.edge_sigmas, bands_seen,
                                           left.at_center, right.at_center);
       body.total == 0 || (body.on < kBodyShare * body.total && !body.limbs_step_into_body)) {
-    return absl::InvalidArgumentError(absl::StrCat(
+    return refuse(absl::StrCat(
         "no cylinder found: only ", body.on, " of ", body.total, " columns between the two "
         "edges differ from the background in level or texture; a body as dark and as "
         "smooth as the background shows only its glints (light it, or darken the "
@@ -2040,7 +2198,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (first < 0 || b < first) first = b;
     if (last < 0 || b > last) last = b;
   }
-  if (first < 0) return absl::InvalidArgumentError("no cylinder found: limbs inconsistent");
+  if (first < 0) return refuse("no cylinder found: limbs inconsistent");
   // Refine the ends row by row: a row belongs to the cylinder when the
   // surface just inside both limbs (offsets 0.75–0.95) stands above the
   // background; bands that straddle an end would otherwise count whole.
@@ -2097,33 +2255,42 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   if (std::isfinite(options.phase_angle_rad)) {
     return CheckAgainstPhase({luminance, region, mean_profile, background, noise, mean_rows, side,
                               options},
-                             g, final_left, final_right, reseeded);
+                             g, final_left, final_right, reseeded, trace);
+  }
+  if (trace != nullptr) {
+    trace->hypotheses.push_back({"both edges are limbs", g, true, "no phase angle to check"});
   }
   return g;
 }
 
 }  // namespace
 
-absl::StatusOr<CylinderGeometry> DetectCylinder(
-    const Image& luminance, const CylinderDetectionOptions& options) {
+absl::StatusOr<CylinderGeometry> DetectCylinder(const Image& luminance,
+                                                const CylinderDetectionOptions& options,
+                                                DetectionTrace* trace) {
   if (absl::Status s = options.Validate(); !s.ok()) return s;
   // From 90° on, the blur the limb in shadow alone proposes is not used, for
   // that edge may be the terminator. When both limbs came out seen, it was a
   // limb: the lit limb is placed again through that blur. (A sinusoid at
   // 100°, lens blur 2 px, 640×480, noise-free: its lit limb 3.4 px out,
   // then within 0.1 px.)
-  auto detect = [&](double side_fraction) {
+  // Each attempt's trace, when asked for one; the returned result's is kept.
+  auto detect = [&](double side_fraction, DetectionTrace* seen) {
     absl::StatusOr<CylinderGeometry> first =
-        DetectWithSideStrips(luminance, options, side_fraction);
+        DetectWithSideStrips(luminance, options, side_fraction, false, seen);
     if (first.ok() && first->unused_blur_px > 0.0 && first->left_observed &&
         first->right_observed) {
-      absl::StatusOr<CylinderGeometry> again =
-          DetectWithSideStrips(luminance, options, side_fraction, true);
-      if (again.ok() && again->left_observed && again->right_observed) return again;
+      DetectionTrace again_seen;
+      absl::StatusOr<CylinderGeometry> again = DetectWithSideStrips(
+          luminance, options, side_fraction, true, seen != nullptr ? &again_seen : nullptr);
+      if (again.ok() && again->left_observed && again->right_observed) {
+        if (seen != nullptr) *seen = std::move(again_seen);
+        return again;
+      }
     }
     return first;
   };
-  absl::StatusOr<CylinderGeometry> found = detect(options.background_fraction);
+  absl::StatusOr<CylinderGeometry> found = detect(options.background_fraction, trace);
   // A cylinder that fills the frame has a limb inside the side strips: the
   // bands are searched from the strips inward and skip it (limbs 11.5 px
   // from the edge of a 320 px image, 21 px of a 640 px one, were "no
@@ -2138,7 +2305,10 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(
       !absl::StartsWith(found.status().message(), kTooFewLimbs)) {
     return found;
   }
-  absl::StatusOr<CylinderGeometry> narrowed = detect(narrow);
+  DetectionTrace narrowed_seen;
+  absl::StatusOr<CylinderGeometry> narrowed =
+      detect(narrow, trace != nullptr ? &narrowed_seen : nullptr);
+  if (narrowed.ok() && trace != nullptr) *trace = std::move(narrowed_seen);
   return narrowed.ok() ? narrowed : found;
 }
 

@@ -147,10 +147,45 @@ ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
                             double center, double half_width, int light_side,
                             const Projection& projection, double min_rise);
 
+// What detection saw, for a picture of why it refused a photograph (`--plot`
+// on a refusal): plain data in image coordinates, NaN where nothing was found.
+struct DetectionTrace {
+  PixelRegion region;                // the region read (never empty once filled)
+  int side_px = 0;                   // the side strips read as background, each side
+  std::vector<double> column_means;  // all bands' rows; [0] is column region.x
+  double left_background = std::numeric_limits<double>::quiet_NaN();
+  double right_background = std::numeric_limits<double>::quiet_NaN();
+  double noise = std::numeric_limits<double>::quiet_NaN();  // one pixel's
+  // Each row band's two edges, where the band found both (FindBandLimbs).
+  struct BandEdge {
+    double row = 0.0;
+    double left_x = 0.0;
+    double right_x = 0.0;
+  };
+  std::vector<BandEdge> band_edges;
+  // Each limb as all rows together place it (FindShearedLimbs), at the
+  // reference row; NaN when they placed none.
+  double all_rows_left_x = std::numeric_limits<double>::quiet_NaN();
+  double all_rows_right_x = std::numeric_limits<double>::quiet_NaN();
+  // A cylinder the edges were taken to make, and what the photograph said
+  // to it: `verdict` gives the figures that kept or rejected it.
+  struct Hypothesis {
+    std::string name;
+    CylinderGeometry cylinder;
+    bool kept = false;
+    std::string verdict;
+  };
+  std::vector<Hypothesis> hypotheses;
+  double phase_angle_rad = std::numeric_limits<double>::quiet_NaN();
+  bool Filled() const { return !column_means.empty(); }
+};
+
 // Locates the cylinder in a one-channel linear image. INVALID_ARGUMENT when
-// no cylinder is found (the message says why).
-absl::StatusOr<CylinderGeometry> DetectCylinder(
-    const Image& luminance, const CylinderDetectionOptions& options);
+// no cylinder is found (the message says why). With `trace`, what was seen
+// on the way (of the attempt whose result is returned).
+absl::StatusOr<CylinderGeometry> DetectCylinder(const Image& luminance,
+                                                const CylinderDetectionOptions& options,
+                                                DetectionTrace* trace = nullptr);
 
 }  // namespace weavefit
 

@@ -705,6 +705,84 @@ TEST(DarkLimbTest, BothLimbsObservedWhenTheBodyShows) {
   }
 }
 
+// A lit backdrop (a gradient across the frame) and a body in stray light
+// that stands at the background's level beside its unlit limb, at 80°: the
+// body's level in shadow is judged against the background beside that limb
+// (its trend carried in from beyond it), not against a side strip whose
+// level the gradient has moved as far as the body stands from it. Refused
+// before ("the body continues beyond the unlit edge").
+TEST(DetectionCasesTest, AStrayLitBodyUnderABackgroundGradientKeepsItsLimbs) {
+  RenderScene scene = CaseScene();
+  scene.phase_angle_deg = 80.0;
+  scene.ambient = 0.0;
+  scene.stray_light = 0.015;
+  scene.background = 0.012;
+  scene.background_gradient = 0.004;
+  scene.wavelength_mm = 3.0;
+  scene.amplitude_mm = 0.28;
+  scene.seed = 5;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  ExpectLimbsAndTilt(scene, rendered, *g);
+}
+
+// --- What detection saw ----------------------------------------------------------
+
+TEST(DetectionTraceTest, ARefusalRecordsTheColumnsTheEdgesAndEachCylinderTried) {
+  RenderScene scene = CaseScene();
+  scene.phase_angle_deg = 60.0;
+  const Rendered rendered = Render(scene);
+  CylinderDetectionOptions options;
+  options.phase_angle_rad = -60.0 * kDeg;  // the wrong sign: refused
+  DetectionTrace trace;
+  absl::StatusOr<CylinderGeometry> g = DetectCylinder(rendered.image, options, &trace);
+  ASSERT_FALSE(g.ok());
+  ASSERT_TRUE(trace.Filled());
+  EXPECT_EQ(trace.column_means.size(), static_cast<std::size_t>(scene.width_px));
+  EXPECT_EQ(trace.region.width, scene.width_px);
+  EXPECT_GT(trace.side_px, 0);
+  EXPECT_GT(trace.noise, 0.0);
+  EXPECT_NEAR(trace.left_background, scene.background, 0.002);
+  EXPECT_GE(trace.band_edges.size(), 3u);
+  const Limbs truth = TrueLimbs(rendered.truth);
+  for (const DetectionTrace::BandEdge& e : trace.band_edges) {
+    EXPECT_NEAR(e.left_x, truth.left, 3.0) << e.row;
+    EXPECT_NEAR(e.right_x, truth.right, 3.0) << e.row;
+  }
+  ASSERT_FALSE(trace.hypotheses.empty());
+  for (const DetectionTrace::Hypothesis& h : trace.hypotheses) {
+    EXPECT_FALSE(h.kept) << h.name;
+    EXPECT_FALSE(h.verdict.empty()) << h.name;
+  }
+  EXPECT_EQ(trace.hypotheses.front().name, "both edges are limbs");
+  EXPECT_NEAR(trace.hypotheses.front().cylinder.radius_px, rendered.truth.radius_px, 1.0);
+}
+
+TEST(DetectionTraceTest, AFoundCylinderIsTheOneHypothesisKept) {
+  RenderScene scene = CaseScene();
+  scene.phase_angle_deg = 60.0;
+  const Rendered rendered = Render(scene);
+  CylinderDetectionOptions options;
+  options.phase_angle_rad = 60.0 * kDeg;
+  DetectionTrace trace;
+  absl::StatusOr<CylinderGeometry> g = DetectCylinder(rendered.image, options, &trace);
+  ASSERT_TRUE(g.ok()) << g.status();
+  int kept = 0;
+  for (const DetectionTrace::Hypothesis& h : trace.hypotheses) {
+    if (!h.kept) continue;
+    ++kept;
+    EXPECT_DOUBLE_EQ(h.cylinder.radius_px, g->radius_px);
+    EXPECT_DOUBLE_EQ(h.cylinder.center_x_px, g->center_x_px);
+  }
+  EXPECT_EQ(kept, 1);
+  // The same cylinder with or without a trace.
+  absl::StatusOr<CylinderGeometry> plain = DetectCylinder(rendered.image, options);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_DOUBLE_EQ(plain->radius_px, g->radius_px);
+}
+
 // --- No cylinder --------------------------------------------------------------
 
 void ExpectNoCylinder(const Rendered& rendered) {

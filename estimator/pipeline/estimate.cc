@@ -797,7 +797,8 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
 // warning that says where it came from.
 absl::StatusOr<CylinderGeometry> CylinderFor(const Image& luminance,
                                              const Acquisition& acquisition,
-                                             const EstimateOptions& options, Estimate* estimate) {
+                                             const EstimateOptions& options, Estimate* estimate,
+                                             DetectionTrace* trace = nullptr) {
   if (acquisition.given_cylinder) {
     absl::StatusOr<CylinderGeometry> given =
         GeometryFromGiven(*acquisition.given_cylinder, luminance.width, luminance.height,
@@ -812,7 +813,7 @@ absl::StatusOr<CylinderGeometry> CylinderFor(const Image& luminance,
   detection.region = acquisition.region;
   detection.phase_angle_rad = acquisition.phase_angle_rad;
   detection.projection = acquisition.GetProjection();
-  absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection);
+  absl::StatusOr<CylinderGeometry> cylinder = DetectCylinder(luminance, detection, trace);
   if (!cylinder.ok()) return cylinder.status();
   estimate->cylinder = *cylinder;
   estimate->cylinder_source = CylinderSource::kDetected;
@@ -1299,7 +1300,8 @@ absl::StatusOr<std::int64_t> EstimateWorkingBytes(const std::string& bytes) {
 
 absl::StatusOr<DetectedCylinder> DetectCylinderInBytes(const std::string& bytes,
                                                        const Acquisition& acquisition,
-                                                       const EstimateOptions& options) {
+                                                       const EstimateOptions& options,
+                                                       DetectionTrace* trace) {
   Acquisition detect = acquisition;
   detect.given_cylinder.reset();
   if (absl::Status s = detect.Validate(); !s.ok()) return s;
@@ -1320,7 +1322,7 @@ absl::StatusOr<DetectedCylinder> DetectCylinderInBytes(const std::string& bytes,
   if (image->channels != 1) converted = Luminance(*image);
   Estimate estimate;
   absl::StatusOr<CylinderGeometry> cylinder =
-      CylinderFor(image->channels != 1 ? converted : *image, detect, options, &estimate);
+      CylinderFor(image->channels != 1 ? converted : *image, detect, options, &estimate, trace);
   if (!cylinder.ok()) return cylinder.status();
   return DetectedCylinder{*cylinder, image->width, image->height};
 }

@@ -241,7 +241,9 @@ absl::StatusOr<Estimate> EstimateFromImage(const Image& image,
 // acquisition's region, phase angle and projection; the same limits), with
 // the image's size: what a series detects on each of its photographs
 // before it combines them (CombineCylinders). The acquisition's given
-// cylinder, if any, is ignored. The errors are EstimateFromBytes's.
+// cylinder, if any, is ignored. The errors are EstimateFromBytes's. With
+// `trace`, what detection saw (DetectCylinder), filled when it got as far
+// as reading the photograph, refused or not.
 struct DetectedCylinder {
   CylinderGeometry cylinder;
   int width = 0;
@@ -249,7 +251,8 @@ struct DetectedCylinder {
 };
 absl::StatusOr<DetectedCylinder> DetectCylinderInBytes(const std::string& bytes,
                                                        const Acquisition& acquisition,
-                                                       const EstimateOptions& options);
+                                                       const EstimateOptions& options,
+                                                       DetectionTrace* trace = nullptr);
 
 }  // namespace weavefit
 
