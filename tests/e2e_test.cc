@@ -4,6 +4,7 @@
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <limits>
@@ -308,6 +309,29 @@ TEST_F(EndToEnd, ASeriesSharesOneCylinder) {
 
 // The daemon's EstimateJoint: a photograph it cannot estimate fails the
 // whole call with a message that names it, and the daemon keeps serving.
+// A photograph refused at detection (the phase angle's sign wrong), with
+// --plot, in-process and through the daemon: the refusal stands as it was
+// and the picture of what detection saw is written and named on stderr.
+TEST_F(EndToEnd, ARefusedPhotographGetsThePictureOfWhatDetectionSaw) {
+  const std::string image = kFixtures + "/gauze_sinusoid_p60.png";
+  for (bool remote : {false, true}) {
+    SCOPED_TRACE(remote ? "submit" : "estimate");
+    const std::string dir = MakeTempDir() + "/plots";
+    const std::vector<std::string> args = {image, "--phase-angle", "-60", "--plot", dir};
+    const CommandResult run = remote ? Submit(args) : Estimate(args);
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_NE(run.err.find("INVALID_ARGUMENT: no cylinder found consistent with the phase angle"),
+              std::string::npos)
+        << run.err;
+    EXPECT_NE(run.err.find("what detection saw is in " + dir + "/gauze_sinusoid_p60.png"),
+              std::string::npos)
+        << run.err;
+    struct stat info;
+    ASSERT_EQ(stat((dir + "/gauze_sinusoid_p60.png").c_str(), &info), 0);
+    EXPECT_GT(info.st_size, 10000);
+  }
+}
+
 TEST_F(EndToEnd, JointCallNamesTheFailingPhotograph) {
   const std::string bad = MakeTempDir() + "/not_an_image.png";
   WriteFileOrDie(bad, "this is not a PNG file");
