@@ -2,6 +2,7 @@
 //
 //   weavefit estimate IMAGE... --phase-angle DEG     in-process
 //   weavefit submit INPUT... --server HOST:PORT[,..] through weavefitd (client/submit.cc)
+//   weavefit detect IMAGE... --phase-angle DEG       the cylinder only (a set-up check)
 //   weavefit render --out FILE [scene flags]         a photograph with truth
 //
 // Exit status: 0 when every image succeeded; otherwise the gRPC/absl status
@@ -11,6 +12,8 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <CLI/CLI.hpp>
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
 #include <glog/logging.h>
 #include <cmath>
 #include <fstream>
@@ -24,6 +27,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "client/batch.h"
 #include "client/bench.h"
 #include "client/files.h"
@@ -180,6 +184,100 @@ int RunEstimates(EstimateFlags flags) {
   return first_error.ok() ? 0 : static_cast<int>(first_error.code());
 }
 
+// Flags of detect.
+struct DetectFlags {
+  std::vector<std::string> images;
+  MetadataFlags metadata;
+  bool json = false;
+  std::string plot_dir;
+};
+
+// One line of `weavefit detect --json`: {"image", "cylinder"} (the reply's
+// Cylinder field names, and the image's size) or {"image", "error"}.
+std::string DetectionJson(const std::string& image,
+                          const absl::StatusOr<DetectedCylinder>& detected) {
+  google::protobuf::Struct root;
+  auto& fields = *root.mutable_fields();
+  fields["image"].set_string_value(image);
+  if (!detected.ok()) {
+    auto& error = *fields["error"].mutable_struct_value()->mutable_fields();
+    error["code"].set_string_value(absl::StatusCodeToString(detected.status().code()));
+    error["message"].set_string_value(std::string(detected.status().message()));
+  } else {
+    const CylinderGeometry& c = detected->cylinder;
+    auto& out = *fields["cylinder"].mutable_struct_value()->mutable_fields();
+    out["centerXPx"].set_number_value(c.center_x_px);
+    out["centerRowPx"].set_number_value(c.center_row_px);
+    out["radiusPx"].set_number_value(c.radius_px);
+    out["radiusStderrPx"].set_number_value(c.radius_stderr_px);
+    out["axisAngleDeg"].set_number_value(c.axis_angle_rad * 180.0 / M_PI);
+    out["topRowPx"].set_number_value(c.top_row);
+    out["bottomRowPx"].set_number_value(c.bottom_row);
+    out["leftLimbObserved"].set_bool_value(c.left_observed);
+    out["rightLimbObserved"].set_bool_value(c.right_observed);
+    out["imageWidthPx"].set_number_value(detected->width);
+    out["imageHeightPx"].set_number_value(detected->height);
+  }
+  std::string json;
+  (void)google::protobuf::util::MessageToJsonString(root, &json);
+  return json;
+}
+
+// weavefit detect: the cylinder of each image as its estimate would detect
+// it, and with --plot the picture of what detection saw; for checking a
+// set-up (framing, background, the phase angle's sign) before a series.
+int RunDetect(const DetectFlags& flags) {
+  const std::size_t angles = flags.metadata.phase_angles_deg.size();
+  if (angles > 1 && angles != flags.images.size()) {
+    std::cerr << "weavefit: --phase-angle gives " << angles << " angles for "
+              << flags.images.size() << " images: give one for all or one per image\n";
+    return static_cast<int>(absl::StatusCode::kInvalidArgument);
+  }
+  const std::vector<std::string> plot_names = PlotFileNames(flags.images);
+  absl::Status first_error;
+  if (!flags.json) {
+    std::cout << absl::StrFormat("%-40s %10s %16s %9s %11s %s\n", "image", "axis (px)",
+                                 "radius (px)", "tilt (deg)", "rows", "limbs");
+  }
+  for (std::size_t index = 0; index < flags.images.size(); ++index) {
+    const std::string& image = flags.images[index];
+    absl::Status plot_error;
+    absl::StatusOr<DetectedCylinder> detected = [&]() -> absl::StatusOr<DetectedCylinder> {
+      absl::StatusOr<std::string> bytes = ReadFile(image);
+      if (!bytes.ok()) return bytes.status();
+      absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags.metadata, image, index, nullptr);
+      if (!header.ok()) return header.status();
+      return DetectWithPicture(flags.plot_dir, plot_names[index], image, *bytes, *header,
+                               &plot_error);
+    }();
+    if (!plot_error.ok()) std::cerr << "weavefit: " << image << ": " << plot_error.message() << "\n";
+    if (!flags.plot_dir.empty() && plot_error.ok() &&
+        (detected.ok() || detected.status().code() == absl::StatusCode::kInvalidArgument)) {
+      std::cerr << "weavefit: " << image << ": what detection saw is in " << flags.plot_dir << "/"
+                << plot_names[index] << "\n";
+    }
+    if (!detected.ok()) {
+      if (first_error.ok()) first_error = detected.status();
+      std::cerr << "weavefit: " << image << ": "
+                << absl::StatusCodeToString(detected.status().code()) << ": "
+                << detected.status().message() << "\n";
+      if (flags.json) std::cout << DetectionJson(image, detected) << "\n";
+      continue;
+    }
+    const CylinderGeometry& c = detected->cylinder;
+    const double tilt = c.axis_angle_rad * 180.0 / M_PI;
+    if (flags.json) {
+      std::cout << DetectionJson(image, detected) << "\n";
+    } else {
+      std::cout << absl::StrFormat(
+          "%-40s %10.2f %8.2f ± %5.2f %9.3f %5d-%-5d %s/%s\n", image, c.center_x_px, c.radius_px,
+          c.radius_stderr_px, tilt, c.top_row, c.bottom_row, c.left_observed ? "seen" : "inferred",
+          c.right_observed ? "seen" : "inferred");
+    }
+  }
+  return first_error.ok() ? 0 : static_cast<int>(first_error.code());
+}
+
 // The acquisition flags of estimate and submit.
 void AddMetadataFlags(CLI::App* app, MetadataFlags* flags) {
   app->add_option("--phase-angle", flags->phase_angles_deg,
@@ -248,7 +346,8 @@ void AddEstimateFlags(CLI::App* app, EstimateFlags* flags) {
                   "write a fit plot per image into this folder (DIR/<image stem>.png, made "
                   "distinct where stems repeat): the "
                   "profile with its error band, every model's fit, the peaks, the residuals and "
-                  "the photograph with the detected limbs");
+                  "the photograph with the detected limbs; for an image refused at detection, "
+                  "the picture of what detection saw");
 }
 
 void AddSubmitFlags(CLI::App* app, SubmitFlags* flags) {
@@ -291,7 +390,9 @@ void AddSubmitFlags(CLI::App* app, SubmitFlags* flags) {
   app->add_option("--plot", flags->plot_dir,
                   "write a fit plot per image into this folder (DIR/<image stem>.png, made "
                   "distinct where stems repeat; the daemon "
-                  "returns the curves, the photograph is drawn from the local file)");
+                  "returns the curves, the photograph is drawn from the local file); for an "
+                  "image refused at detection, the picture of what detection saw (detected "
+                  "again here)");
   Connection& c = flags->connection;
   app->add_option("--server", c.server,
                   "weavefitd address host:port; several, host1:port,host2:port, or a DNS name "
@@ -515,6 +616,18 @@ int main(int argc, char** argv) {
       "submit", "estimate through weavefitd daemons: files, folders, globs or a manifest, "
                 "several at once, with retries");
   weavefit::AddSubmitFlags(submit, &submit_flags);
+  weavefit::DetectFlags detect_flags;
+  CLI::App* detect = app.add_subcommand(
+      "detect", "find the cylinder only, as estimate would (check a set-up before a series)");
+  detect->add_option("images", detect_flags.images, "photographs (PNG, TIFF, JPEG, EXR)")
+      ->required();
+  weavefit::AddMetadataFlags(detect, &detect_flags.metadata);
+  detect->add_flag("--json", detect_flags.json,
+                   "one JSON object per image: {\"image\", \"cylinder\"} or {\"image\", \"error\"}");
+  detect->add_option("--plot", detect_flags.plot_dir,
+                     "write the picture of what detection saw per image into this folder "
+                     "(DIR/<image stem>.png): the column profile, the edges found, each cylinder "
+                     "tried and the figures that judged it, and the photograph");
   CLI::App* render = app.add_subcommand("render", "render a cylinder photograph with a truth sidecar");
   weavefit::AddRenderFlags(render, &render_flags);
   weavefit::BenchFlags bench_flags;
@@ -558,6 +671,7 @@ int main(int argc, char** argv) {
   }
   CLI11_PARSE(app, argc, argv);
   if (*estimate) return weavefit::RunEstimates(estimate_flags);
+  if (*detect) return weavefit::RunDetect(detect_flags);
   if (*submit) return weavefit::RunSubmit(submit_flags);
   if (*render) return weavefit::RunRender(render_flags);
   if (*bench) {

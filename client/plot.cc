@@ -562,6 +562,57 @@ absl::Status WriteDetectionPlot(const DetectionTrace& trace, const std::string& 
   return WriteSideBySide(chart, *thumbnail, dir, png_path);
 }
 
+namespace {
+
+// WriteDetectionPlot into DIR/file_name, titled with the image's name and
+// `outcome`.
+absl::Status WriteTracePicture(const std::string& dir, const std::string& file_name,
+                               const std::string& image, const std::string& image_bytes,
+                               const DetectionTrace& trace, const std::string& outcome,
+                               const std::string& message) {
+  if (mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST) {
+    return absl::InvalidArgumentError(absl::StrCat("cannot make the plot folder ", dir));
+  }
+  const std::string name = image.substr(image.find_last_of('/') + 1);
+  if (absl::Status s = WriteDetectionPlot(trace, image_bytes, absl::StrCat(name, "  —  ", outcome),
+                                          message, dir + "/" + file_name);
+      !s.ok()) {
+    return absl::Status(s.code(), absl::StrCat("plot: ", s.message()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<DetectedCylinder> DetectWithPicture(const std::string& dir,
+                                                   const std::string& file_name,
+                                                   const std::string& image,
+                                                   const std::string& image_bytes,
+                                                   const v1::RequestHeader& header,
+                                                   absl::Status* plot_error) {
+  absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(header.acquisition());
+  if (!acquisition.ok()) return acquisition.status();
+  DetectionTrace trace;
+  absl::StatusOr<DetectedCylinder> detected = DetectCylinderInBytes(
+      image_bytes, *acquisition, EstimateOptions(), dir.empty() ? nullptr : &trace);
+  if (dir.empty() || !trace.Filled()) return detected;
+  std::string message;
+  if (detected.ok()) {
+    const CylinderGeometry& c = detected->cylinder;
+    message = absl::StrFormat(
+        "cylinder found: axis at column %.2f (row %.1f), radius %.2f ± %.2f px, tilt %.3f deg, "
+        "rows %d-%d, left limb %s, right limb %s",
+        c.center_x_px, c.center_row_px, c.radius_px, c.radius_stderr_px,
+        c.axis_angle_rad * 180.0 / M_PI, c.top_row, c.bottom_row,
+        c.left_observed ? "seen" : "inferred", c.right_observed ? "seen" : "inferred");
+  } else {
+    message = std::string(detected.status().message());
+  }
+  *plot_error = WriteTracePicture(dir, file_name, image, image_bytes, trace,
+                                  detected.ok() ? "cylinder found" : "cylinder not found", message);
+  return detected;
+}
+
 absl::StatusOr<bool> PlotRefusalInto(const std::string& dir, const std::string& file_name,
                                      const std::string& image, const std::string& image_bytes,
                                      const v1::RequestHeader& header,
@@ -576,16 +627,11 @@ absl::StatusOr<bool> PlotRefusalInto(const std::string& dir, const std::string& 
   absl::StatusOr<DetectedCylinder> detected =
       DetectCylinderInBytes(image_bytes, *acquisition, EstimateOptions(), &trace);
   if (detected.ok() || !trace.Filled()) return false;
-  if (mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST) {
-    return absl::InvalidArgumentError(absl::StrCat("cannot make the plot folder ", dir));
-  }
-  const std::string name = image.substr(image.find_last_of('/') + 1);
-  const std::string title = absl::StrCat(name, "  —  cylinder not found");
-  if (absl::Status s = WriteDetectionPlot(trace, image_bytes, title,
-                                          std::string(detected.status().message()),
-                                          dir + "/" + file_name);
+  if (absl::Status s = WriteTracePicture(dir, file_name, image, image_bytes, trace,
+                                         "cylinder not found",
+                                         std::string(detected.status().message()));
       !s.ok()) {
-    return absl::Status(s.code(), absl::StrCat("plot: ", s.message()));
+    return s;
   }
   return true;
 }

@@ -332,6 +332,33 @@ TEST_F(EndToEnd, ARefusedPhotographGetsThePictureOfWhatDetectionSaw) {
   }
 }
 
+// `weavefit detect`: the cylinder alone, as the estimate finds it, as JSON
+// and with the picture of what detection saw; a refusal is an error line.
+TEST_F(EndToEnd, DetectGivesTheCylinderAloneAndItsPicture) {
+  const std::string image = kFixtures + "/gauze_sinusoid_p60.png";
+  const std::string dir = MakeTempDir() + "/detect";
+  const CommandResult found = RunCommand(
+      {WEAVEFIT_PATH, "detect", image, "--phase-angle", "60", "--json", "--plot", dir});
+  ASSERT_EQ(found.exit_code, 0) << found.err;
+  google::protobuf::Struct line;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(found.out, &line).ok()) << found.out;
+  const auto& cylinder = line.fields().at("cylinder").struct_value().fields();
+  // The fixture's truth: axis at 159.5, radius 128 px, upright.
+  EXPECT_NEAR(cylinder.at("centerXPx").number_value(), 159.5, 0.1);
+  EXPECT_NEAR(cylinder.at("radiusPx").number_value(), 128.0, 0.1);
+  EXPECT_NEAR(cylinder.at("axisAngleDeg").number_value(), 0.0, 0.05);
+  EXPECT_TRUE(cylinder.at("leftLimbObserved").bool_value());
+  struct stat info;
+  EXPECT_EQ(stat((dir + "/gauze_sinusoid_p60.png").c_str(), &info), 0) << found.err;
+  const CommandResult refused =
+      RunCommand({WEAVEFIT_PATH, "detect", image, "--phase-angle", "-60", "--json"});
+  EXPECT_EQ(refused.exit_code, 3) << refused.err;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(refused.out, &line).ok()) << refused.out;
+  EXPECT_EQ(line.fields().at("error").struct_value().fields().at("code").string_value(),
+            "INVALID_ARGUMENT");
+  EXPECT_EQ(line.fields().at("image").string_value(), image);
+}
+
 TEST_F(EndToEnd, JointCallNamesTheFailingPhotograph) {
   const std::string bad = MakeTempDir() + "/not_an_image.png";
   WriteFileOrDie(bad, "this is not a PNG file");
