@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <system_error>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -21,6 +23,26 @@
 
 namespace weavefit {
 namespace {
+
+// Runs `left` on a second thread and `right` on this one, and returns when
+// both are done: the two limbs' fits read the same bands and each writes
+// only its own results, so they run side by side (on one core, or when no
+// thread can be had, one after the other).
+template <typename Left, typename Right>
+void ForBothLimbs(Left&& left, Right&& right) {
+  if (std::thread::hardware_concurrency() > 1) {
+    try {
+      std::thread other(std::forward<Left>(left));
+      right();
+      other.join();
+      return;
+    } catch (const std::system_error&) {
+      // No thread: below, in turn.
+    }
+  }
+  left();
+  right();
+}
 
 struct LimbPoint {
   double row = 0.0;
@@ -359,15 +381,6 @@ void SetBlur(EdgeWindow* w, const Blur& blur) {
   w->blur = &blur;
 }
 
-// A pixel's share of a point at offset t from its centre (the blur's kernel).
-double KernelAt(const Blur& blur, double t) {
-  const double at = (t + blur.reach) / kKernelStepPx;
-  if (!(at >= 0.0) || at >= static_cast<double>(blur.kernel.size() - 1)) return 0.0;
-  const int k = static_cast<int>(at);
-  const double f = at - k;
-  return (1.0 - f) * blur.kernel[k] + f * blur.kernel[k + 1];
-}
-
 EdgeSums SumsAt(const EdgeWindow& w, double e) {
   EdgeSums t;
   for (int x : w.xs) {
@@ -383,9 +396,18 @@ EdgeSums SumsAt(const EdgeWindow& w, double e) {
       const int k_lo = std::max(0, static_cast<int>(std::floor(near / kCellPx - 0.5)));
       const int k_hi = std::min(static_cast<int>(w.cell_integral.size()) - 1,
                                 static_cast<int>(std::ceil(far / kCellPx - 0.5)));
-      for (int k = k_lo; k <= k_hi; ++k) {
-        const double u = e + w.inward * (k + 0.5) * kCellPx;  // the cell's centre
-        const double share = KernelAt(*w.blur, u - x);
+      // A pixel's share of each cell: the kernel (BlurKernel's table,
+      // interpolated linearly) at the cell's centre u = e + inward·(k +
+      // 0.5)·kCellPx less x, stepped through the table cell by cell.
+      const std::vector<double>& kernel = w.blur->kernel;
+      const double last = static_cast<double>(kernel.size() - 1);
+      const double step = w.inward * kCellPx / kKernelStepPx;
+      double at = (e + w.inward * (k_lo + 0.5) * kCellPx - x + reach) / kKernelStepPx;
+      for (int k = k_lo; k <= k_hi; ++k, at += step) {
+        if (!(at >= 0.0) || at >= last) continue;
+        const int j = static_cast<int>(at);
+        const double f = at - j;
+        const double share = (1.0 - f) * kernel[j] + f * kernel[j + 1];
         c += share * kCellPx;
         i += share * w.cell_integral[k];
       }
@@ -1076,40 +1098,69 @@ ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
   // light as at a terminator: the Lambertian ramp max(0, sin(s·(φ − φ0))),
   // or the axial threads' grazing scatter, a step ∝ 1/cos φ. At least two
   // blocks on each side of it, so that its amplitude is measured.
+  // M1 is M0 and one column v more: its fit adds to M0's the part w of v
+  // that M0 cannot explain (v less its projection on M0's columns), times
+  // (w·e0)/(w·w), and takes (w·e0)²/(w·w) off the residual sum of squares,
+  // with e0 M0's residuals (Frisch–Waugh–Lovell). So each onset costs a
+  // projection, not a least-squares solve.
+  std::vector<std::vector<double>> basis = m0;  // M0's columns, orthonormalised
+  for (std::size_t a = 0; a < basis.size(); ++a) {
+    for (std::size_t p = 0; p < a; ++p) {
+      double dot = 0.0;
+      for (int b = 0; b < blocks; ++b) dot += basis[a][b] * basis[p][b];
+      for (int b = 0; b < blocks; ++b) basis[a][b] -= dot * basis[p][b];
+    }
+    double norm = 0.0;
+    for (int b = 0; b < blocks; ++b) norm += basis[a][b] * basis[a][b];
+    norm = std::sqrt(norm);
+    for (int b = 0; b < blocks; ++b) basis[a][b] /= norm;  // M0 has full rank (above)
+  }
+  std::vector<double> e0(blocks);
+  for (int b = 0; b < blocks; ++b) {
+    double f0 = 0.0;
+    for (int k = 0; k < 4; ++k) f0 += c0[k] * m0[k][b];
+    e0[b] = y[b] - f0;
+  }
   const double n = blocks;
+  std::vector<double> v(blocks);
   for (int onset = lo + 2 * kBlock; onset <= lo + (blocks - 2) * kBlock; ++onset) {
     const double phi0 = azimuth(onset - 0.5);
     for (int kind = 0; kind < 2; ++kind) {
-      std::vector<std::vector<double>> m1 = m0;
-      m1.emplace_back(blocks, 0.0);
+      std::fill(v.begin(), v.end(), 0.0);
       for (int b = 0; b < blocks; ++b) {
         for (int k = 0; k < kBlock; ++k) {
           const double phi = azimuth(lo + b * kBlock + k);
           const double beyond = light_side * (phi - phi0);
           if (beyond <= 0.0) continue;
-          m1[4][b] += (kind == 0 ? std::sin(beyond) : 1.0 / std::max(std::cos(phi), 0.1)) / kBlock;
+          v[b] += (kind == 0 ? std::sin(beyond) : 1.0 / std::max(std::cos(phi), 0.1)) / kBlock;
         }
       }
-      std::vector<double> c1;
-      const double rss1 = LeastSquaresRss(m1, y, &c1);
-      if (!std::isfinite(rss1) || !(c1[4] > 0.0)) continue;  // direct light only adds
+      double vv = 0.0;
+      for (double x : v) vv += x * x;
+      for (const std::vector<double>& q : basis) {
+        double dot = 0.0;
+        for (int b = 0; b < blocks; ++b) dot += q[b] * v[b];
+        for (int b = 0; b < blocks; ++b) v[b] -= dot * q[b];
+      }
+      double ww = 0.0, we = 0.0;
+      for (int b = 0; b < blocks; ++b) {
+        ww += v[b] * v[b];
+        we += v[b] * e0[b];
+      }
+      // v within M0's span (a rank-deficient M1): no onset there.
+      if (!(ww > 1e-20 * vv)) continue;
+      const double amplitude = we / ww;
+      if (!(amplitude > 0.0)) continue;  // direct light only adds
+      const double rss1 = std::max(rss0 - we * we / ww, 0.0);
       // BIC difference: n·ln(RSS0/RSS1) less ln n for each of the two new
       // parameters (the onset and its amplitude).
       const double delta_bic = n * std::log(rss0 / std::max(rss1, 1e-300)) - 2.0 * std::log(n);
       if (delta_bic <= result.delta_bic) continue;
       // The light the onset shows beyond what stray light could: the
-      // largest difference of the two fits (the onset's own term trades
-      // with M0's slope, so its value alone may be none of it).
+      // largest difference of the two fits, amplitude·w (the onset's own
+      // term trades with M0's slope, so its value alone may be none of it).
       double shown = 0.0;
-      for (int b = 0; b < blocks; ++b) {
-        double f0 = 0.0;
-        double f1 = c1[4] * m1[4][b];
-        for (int k = 0; k < 4; ++k) {
-          f0 += c0[k] * m0[k][b];
-          f1 += c1[k] * m1[k][b];
-        }
-        shown = std::max(shown, std::fabs(f1 - f0));
-      }
+      for (int b = 0; b < blocks; ++b) shown = std::max(shown, std::fabs(amplitude * v[b]));
       result.delta_bic = delta_bic;
       result.onset_column = onset;
       result.rise = shown;
@@ -1981,8 +2032,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     trace->all_rows_left_x = reseeded.all_left;
     trace->all_rows_right_x = reseeded.all_right;
   }
-  left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN());
-  right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN());
+  ForBothLimbs([&] { left_points = refine_limb(+1, std::numeric_limits<double>::quiet_NaN()); },
+               [&] { right_points = refine_limb(-1, std::numeric_limits<double>::quiet_NaN()); });
   // The held S is one number for the whole limb, so its own noise moves every
   // band's edge alike, which the line's scatter over the bands does not show:
   // over 64 noise draws of the coarse gauze at 10° the limbs spread 1.3 times
@@ -2010,8 +2061,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // too, as a plain step whose blurred light inside the window's end pulls
   // the fitted body level down: 0.26 and 0.37 px at a lens blur of 0.8 and
   // 1.2 px.
-  LimbFit left_try = joint_limb(+1, left_points);
-  LimbFit right_try = joint_limb(-1, right_points);
+  LimbFit left_try;
+  LimbFit right_try;
+  ForBothLimbs([&] { left_try = joint_limb(+1, left_points); },
+               [&] { right_try = joint_limb(-1, right_points); });
   auto lens_sigma = [&](bool proposers_only) {
     if (!std::isfinite(left_try.scatter) || !std::isfinite(right_try.scatter)) return 0.0;
     if (proposers_only && !left_try.whole) return right_try.blur.sigma;
@@ -2029,8 +2082,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     // The blur at the cap: refitted through wider windows, over wider blurs
     // (the narrow windows' fit is kept where a wide one fails).
     pad = WidePad(kWideMaxBlurPx);
-    LimbFit left_wide = joint_limb(+1, left_points);
-    LimbFit right_wide = joint_limb(-1, right_points);
+    LimbFit left_wide;
+    LimbFit right_wide;
+    ForBothLimbs([&] { left_wide = joint_limb(+1, left_points); },
+                 [&] { right_wide = joint_limb(-1, right_points); });
     if (std::isfinite(left_wide.scatter) && std::isfinite(right_wide.scatter)) {
       left_try = std::move(left_wide);
       right_try = std::move(right_wide);
@@ -2079,8 +2134,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     }
     const int inward = from_left ? +1 : -1;
     const std::vector<LimbPoint>& points = from_left ? left_points : right_points;
-    const LimbFit upper = joint_limb(inward, points, nullptr, &top);
-    const LimbFit lower = joint_limb(inward, points, nullptr, &bottom);
+    LimbFit upper;
+    LimbFit lower;
+    ForBothLimbs([&] { upper = joint_limb(inward, points, nullptr, &top); },
+                 [&] { lower = joint_limb(inward, points, nullptr, &bottom); });
     if (std::isfinite(upper.scatter) && std::isfinite(lower.scatter)) {
       blur_stderr_px = 0.5 * std::fabs(upper.blur.sigma - lower.blur.sigma);
     }
@@ -2103,10 +2160,10 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     const double move = 0.5 * (at(sigma + blur_stderr_px) - at(sigma - blur_stderr_px));
     return std::isfinite(move) ? move : 0.0;
   };
-  for (int inward : {+1, -1}) {
+  auto place_limb = [&](int inward) {
     std::vector<LimbPoint>& points = inward > 0 ? left_points : right_points;
     const LimbFit fit = joint_limb(inward, points, &lens);
-    if (!std::isfinite(fit.scatter)) continue;
+    if (!std::isfinite(fit.scatter)) return;
     const bool toward_light = inward > 0 ? light < 0 : light > 0;
     if (shadow_is_limb && toward_light && !(inward > 0 ? left_try : right_try).whole) {
       // The lit limb placed through the limb in shadow's blur, from 90° on,
@@ -2124,12 +2181,13 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     if (shadowed_limb && !toward_light) {
       // S held at zero in both passes: only the blur and the line are new.
       points = refine_limb(inward, 0.0, lens, &fit.line);
-      continue;
+      return;
     }
     points = refine_limb(inward, fit.scatter, lens, &fit.line);
     (inward > 0 ? left_held_px : right_held_px) =
         held_shift(inward, fit);
-  }
+  };
+  ForBothLimbs([&] { place_limb(+1); }, [&] { place_limb(-1); });
   // A limb's line with that shift's error added to its own.
   auto fit_limb = [&](const std::vector<LimbPoint>& points, double held_px) {
     Line line = FitLimbLine(points, center_row);
