@@ -684,13 +684,20 @@ int RunPerf(const BenchFlags& flags) {
       EstimateOptions options;
       options.mode = mode == std::string("fast") ? Mode::kFast : Mode::kBalanced;
       std::vector<double> after;
+      std::vector<double> detect;
       const double whole = MedianMs(n, [&] {
         absl::StatusOr<Estimate> e = EstimateFromBytes(*bytes, acquisition, options);
         if (!e.ok()) return;
         double sum = 0.0;
-        for (const StageTime& t : e->timings) sum += t.stage == "decode" ? 0.0 : t.milliseconds;
+        for (const StageTime& t : e->timings) {
+          sum += t.stage == "decode" ? 0.0 : t.milliseconds;
+          if (t.stage == "detect") detect.push_back(t.milliseconds);
+        }
         after.push_back(sum);
       });
+      if (mode == std::string("balanced")) {
+        report("cylinder detection (balanced)", format, Median(detect), 30.0, "ms", true);
+      }
       if (mode == std::string("balanced")) {
         report("in-process estimate / decode alone (balanced)", format, whole / decode_ms, 1.25,
                "x", true);
