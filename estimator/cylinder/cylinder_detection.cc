@@ -1271,6 +1271,277 @@ struct SeenPhotograph {
   const CylinderDetectionOptions& options;
 };
 
+// Where the lobe stands on cylinder `c`: the mean azimuth of its two ends.
+// A split lobe's caustics lie symmetric about the mirror azimuth, whichever
+// is the brighter. (The centroid of the brightest columns, used before, took
+// a seen limb for a dark one under a wide lobe:
+// DetectionCasesTest.WideSplitLobeKeepsBothSeenLimbs.) α/2 when no column
+// stands out.
+double LobeAzimuth(const SeenPhotograph& seen, const CylinderGeometry& c) {
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  const auto [first, last] = BrightExtent(seen.mean_profile, seen.region.x,
+                                          c.center_x_px - 0.9 * half, c.center_x_px + 0.9 * half);
+  if (!std::isfinite(first)) return seen.options.phase_angle_rad / 2.0;
+  auto azimuth = [&](double x) {
+    return AzimuthFromOffset(std::clamp((x - c.center_x_px) / half, -1.0, 1.0),
+                             seen.options.projection);
+  };
+  return 0.5 * (azimuth(first) + azimuth(last));
+}
+
+// The background just beside the unlit limb, kBesidePx out, over the
+// cylinder's usable rows (the ends' mount may stand beside the others). A
+// gradient across the frame (a lit backdrop) and vignetting move the
+// background's level between a side strip and the limb by as much as a
+// dim body stands from it. Two models of it:
+//  - the trend beyond the edge: a quadratic (gradient and vignetting)
+//    through the mean levels kTrendFromPx..kTrendToPx outside it along
+//    each row, carried in to kBesidePx. It holds only where those columns
+//    are background: when the edge is not the limb they hold the body
+//    (its texture, its roll-off, the limb's step), whose residuals stand
+//    out of the means' noise: their mean square more than kPlainChi2Sigmas
+//    standard deviations of χ²/dof above 1, with kNoiseAllowance for the
+//    noise estimate's own error (a few per cent from the strip's MAD)
+//    and mildly correlated noise;
+//  - otherwise the line through the two side strips' medians.
+// NaN when a side strip has no rows.
+constexpr int kBesidePx = 7;
+double UnlitBackground(const SeenPhotograph& seen, const CylinderGeometry& c) {
+  constexpr int kTrendFromPx = 12, kTrendToPx = 200;
+  constexpr double kPlainChi2Sigmas = 4.0, kNoiseAllowance = 1.1;
+  const Image& luminance = seen.luminance;
+  const PixelRegion& region = seen.region;
+  const int strip = seen.side;
+  const int unlit = seen.options.phase_angle_rad > 0 ? -1 : 1;
+  const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  std::vector<double> sum(kTrendToPx + 1, 0.0);
+  std::vector<int> count(kTrendToPx + 1, 0);
+  int rows = 0;
+  for (int y = c.top_row; y <= c.bottom_row; y += row_step, ++rows) {
+    const double limb = c.AxisColumn(y) + unlit * half;
+    for (int d = kTrendFromPx; d <= kTrendToPx; ++d) {
+      const int x = static_cast<int>(std::lround(limb + unlit * d));
+      if (x < region.x || x >= region.x + region.width) break;
+      sum[d] += luminance.At(x, y);
+      ++count[d];
+    }
+  }
+  std::vector<std::vector<double>> basis(3);
+  std::vector<double> level;
+  for (int d = kTrendFromPx; d <= kTrendToPx; ++d) {
+    if (count[d] < rows || rows == 0) continue;
+    const double u = (d - kBesidePx) / static_cast<double>(kTrendToPx);
+    basis[0].push_back(1.0);
+    basis[1].push_back(u);
+    basis[2].push_back(u * u);
+    level.push_back(sum[d] / count[d]);
+  }
+  auto strip_values = [&](int from) {
+    std::vector<double> values;
+    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+      for (int x = from; x < from + strip; ++x) values.push_back(luminance.At(x, y));
+    }
+    return values;
+  };
+  const std::vector<double> lefts = strip_values(region.x);
+  const std::vector<double> rights = strip_values(region.x + region.width - strip);
+  if (lefts.empty() || rights.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const double left = Median(lefts);
+  const double right = Median(rights);
+  // The noise of one pixel from the unlit side's strip about its own
+  // median (the detector's `noise` pools both strips about one level,
+  // which a gradient inflates).
+  std::vector<double> deviations;
+  for (double v : unlit < 0 ? lefts : rights) {
+    deviations.push_back(std::fabs(v - (unlit < 0 ? left : right)));
+  }
+  const double pixel_noise = 1.4826 * Median(deviations);
+  std::vector<double> coefficients;
+  const double rss = level.size() >= 16 ? LeastSquaresRss(basis, level, &coefficients)
+                                        : std::numeric_limits<double>::infinity();
+  const double mean_noise = pixel_noise / std::sqrt(std::max(rows, 1));
+  const double dof = static_cast<double>(level.size()) - 3.0;
+  if (std::isfinite(rss) &&
+      rss / dof <= kNoiseAllowance * kNoiseAllowance * mean_noise * mean_noise *
+                       (1.0 + kPlainChi2Sigmas * std::sqrt(2.0 / dof))) {
+    return coefficients[0];  // u = 0 at kBesidePx
+  }
+  const double x_left = region.x + 0.5 * (strip - 1);
+  const double x_right = region.x + region.width - 0.5 * (strip + 1);
+  const double x = c.center_x_px + unlit * (half + kBesidePx);
+  return left + (right - left) * (x - x_left) / std::max(1.0, x_right - x_left);
+}
+
+// The part of the disc in shadow, from the unlit limb to the terminator
+// φ_T = α − sign(α)·90° (with a margin for blur and the tilt's smear of
+// the column means), can only show the body's stray light: no Lambertian,
+// scatter or glint reaches it (DESIGN.md §3). A rise there means the edge
+// taken for the unlit limb is the terminator or beyond. `seen_in_shadow`:
+// the shadow is flat and stands clearly apart from the background beside
+// the unlit limb (UnlitBackground): a body seen in its own shadow, whose
+// edge is its limb (a terminator is taken for a limb only where the body
+// beyond it is as dark as the background); `level` is its median.
+struct ShadowView {
+  bool flat = true;
+  bool seen_in_shadow = false;
+  double level = std::numeric_limits<double>::quiet_NaN();
+  ShadowOnset onset;
+};
+ShadowView JudgeShadow(const SeenPhotograph& seen, const CylinderGeometry& c) {
+  const PixelRegion& region = seen.region;
+  const std::vector<double>& mean_profile = seen.mean_profile;
+  const CylinderDetectionOptions& options = seen.options;
+  ShadowView view;
+  const int side = options.phase_angle_rad > 0 ? 1 : -1;
+  const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
+  const double margin = 3.0 * M_PI / 180.0;
+  const double x_dark = c.center_x_px - side * half;
+  const double x_term = c.center_x_px + OffsetFromAzimuth(phi_t - side * margin, options.projection) * half;
+  const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_term) + smear)) - region.x;
+  const int hi = static_cast<int>(std::floor(std::max(x_dark, x_term) - smear)) - region.x;
+  if (hi - lo < 4) return view;
+  std::vector<double> values;
+  for (int x = std::max(lo, 2); x <= std::min(hi, region.width - 3); ++x) {
+    double v = 0.0;
+    for (int k = -2; k <= 2; ++k) v += mean_profile[x + k];
+    values.push_back(v / 5.0);
+  }
+  if (values.size() < 4) return view;
+  std::sort(values.begin(), values.end());
+  // The scale: the surface's typical level over the disc (a maximum
+  // would be a clipped glint's).
+  std::vector<double> disc;
+  for (int x = static_cast<int>(std::ceil(c.center_x_px - half)) - region.x;
+       x <= static_cast<int>(std::floor(c.center_x_px + half)) - region.x; ++x) {
+    if (x >= 0 && x < region.width) disc.push_back(std::fabs(mean_profile[x] - seen.background));
+  }
+  const double typical = disc.empty() ? 0.0 : Median(disc);
+  const double column_noise = seen.noise / std::sqrt(5.0 * std::max(seen.mean_rows, 1));
+  view.onset = FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
+                               options.projection, 6.0 * column_noise);
+  view.flat = !view.onset.lit;
+  view.level = values[values.size() / 2];
+  const double beside = UnlitBackground(seen, c);
+  const double level = view.level - (std::isfinite(beside) ? beside : seen.background);
+  view.seen_in_shadow = view.flat && std::fabs(level) > std::max(kSeenShadowSigmas * column_noise,
+                                                                 kSeenShadowShare * typical);
+  return view;
+}
+
+// Just inside the unlit limb the surface is in shadow (|α| ≥ 20°): its
+// pixels vary across rows by the noise and the cloth's texture, not by
+// the comb of glints an edge of the specular lobe shows.
+bool UnlitEdgeIsSmooth(const SeenPhotograph& seen, const CylinderGeometry& c) {
+  const Image& luminance = seen.luminance;
+  const CylinderDetectionOptions& options = seen.options;
+  const double background = seen.background;
+  const double noise = seen.noise;
+  if (std::fabs(options.phase_angle_rad) < 20.0 * M_PI / 180.0) return true;
+  const int side = options.phase_angle_rad > 0 ? 1 : -1;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  std::vector<double> spreads;
+  std::vector<double> levels;
+  for (int k = 1; k <= 5; ++k) {
+    double sum = 0.0;
+    double sum_sq = 0.0;
+    int n = 0;
+    for (int y = c.top_row; y <= c.bottom_row; ++y) {
+      const int x = static_cast<int>(std::lround(c.AxisColumn(y) - side * (half - k)));
+      if (x < 0 || x >= luminance.width) continue;
+      const double v = luminance.At(x, y);
+      sum += v;
+      sum_sq += v * v;
+      ++n;
+    }
+    if (n < 3) continue;
+    const double mean = sum / n;
+    spreads.push_back(std::sqrt(std::max(0.0, sum_sq / n - mean * mean)));
+    levels.push_back(std::fabs(mean - background));
+  }
+  if (spreads.empty()) return true;
+  return Median(spreads) < 4.0 * noise + 0.3 * Median(levels);
+}
+
+// A limb is where the body meets the background: just beyond the edge
+// taken for the unlit limb (4-10 px out, past a lens blur of a pixel or
+// two, whose tail there is a few per cent of the step) the level must
+// lie within kLimbOutsideShare of the way from the background beside it
+// (UnlitBackground) to the body seen in shadow (`shadow_level`). Under
+// stray light the body darkens toward its limb gradually (the diffuse light
+// falls off as the surface turns away), and an edge found on that roll-off,
+// the body continuing beyond it, is not the limb.
+bool UnlitEdgeMeetsBackground(const SeenPhotograph& seen, const CylinderGeometry& c,
+                              double shadow_level) {
+  const Image& luminance = seen.luminance;
+  const PixelRegion& region = seen.region;
+  if (!std::isfinite(shadow_level)) return true;
+  const int unlit = seen.options.phase_angle_rad > 0 ? -1 : 1;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+  const double local_background = UnlitBackground(seen, c);
+  if (!std::isfinite(local_background)) return true;
+  double sum = 0.0;
+  int n = 0;
+  for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+    for (int d = kBesidePx - 3; d <= kBesidePx + 3; ++d) {
+      const int x = static_cast<int>(std::lround(c.AxisColumn(y) + unlit * (half + d)));
+      if (x < region.x || x >= region.x + region.width) continue;
+      sum += luminance.At(x, y);
+      ++n;
+    }
+  }
+  if (n == 0) return true;
+  return !(std::fabs(sum / n - local_background) >
+           kLimbOutsideShare * std::fabs(shadow_level - local_background));
+}
+
+// The 20-80 % rise of an edge, px, from the mean over the usable rows
+// of each row's pixels at a distance d inside it (along the row, the
+// axis's tilt followed): a limb is a step blurred by the lens, a
+// terminator taken for one a ramp (the Lambertian term grows from zero
+// there). NaN when the edge has too little contrast to measure.
+double EdgeRisePx(const SeenPhotograph& seen, const CylinderGeometry& c, int side) {
+  const Image& luminance = seen.luminance;
+  const double noise = seen.noise;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
+  constexpr int kOut = 4, kIn = 14;
+  std::vector<double> level(kOut + kIn + 1, 0.0);
+  int rows = 0;
+  for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
+    const double edge = c.AxisColumn(y) + side * half;  // side −1: left
+    const double x_lo = edge - side * kIn, x_hi = edge + side * kOut;
+    if (std::min(x_lo, x_hi) < 0 || std::max(x_lo, x_hi) > luminance.width - 2) continue;
+    for (int d = -kOut; d <= kIn; ++d) {
+      const double x = edge - side * d;
+      const int x0 = static_cast<int>(std::floor(x));
+      const double t = x - x0;
+      level[d + kOut] += (1.0 - t) * luminance.At(x0, y) + t * luminance.At(x0 + 1, y);
+    }
+    ++rows;
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (rows < 3) return nan;
+  for (double& v : level) v /= rows;
+  const double outside = 0.5 * (level[0] + level[1]);
+  const double inside = 0.5 * (level[kOut + kIn] + level[kOut + kIn - 1]);
+  const double step = inside - outside;
+  if (!(std::fabs(step) > 8.0 * noise / std::sqrt(static_cast<double>(rows)))) return nan;
+  auto crossing = [&](double share) {
+    const double at = outside + share * step;
+    for (std::size_t i = 1; i < level.size(); ++i) {
+      if ((level[i - 1] - at) * (level[i] - at) <= 0.0 && level[i] != level[i - 1]) {
+        return (i - 1) + (at - level[i - 1]) / (level[i] - level[i - 1]);
+      }
+    }
+    return nan;
+  };
+  return crossing(0.8) - crossing(0.2);
+}
+
 // With the phase angle known, the lobe must stand near the mirror azimuth
 // α/2. When it does not, the edge on the side away from the light may be
 // the terminator, the limb beyond it lost in darkness: infer that limb
@@ -1292,264 +1563,19 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
   const int mean_rows = seen.mean_rows;
   const CylinderDetectionOptions& options = seen.options;
   const double half_alpha = options.phase_angle_rad / 2.0;
-  // Where the lobe stands: the mean azimuth of its two ends. A split
-  // lobe's caustics lie symmetric about the mirror azimuth, whichever is
-  // the brighter. (The centroid of the brightest columns, used before,
-  // took a seen limb for a dark one under a wide lobe:
-  // DetectionCasesTest.WideSplitLobeKeepsBothSeenLimbs.)
-  auto lobe_azimuth = [&](const CylinderGeometry& c) {
-    const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    const auto [first, last] = BrightExtent(mean_profile, region.x, c.center_x_px - 0.9 * half,
-                                            c.center_x_px + 0.9 * half);
-    if (!std::isfinite(first)) return half_alpha;
-    auto azimuth = [&](double x) {
-      return AzimuthFromOffset(std::clamp((x - c.center_x_px) / half, -1.0, 1.0),
-                               options.projection);
-    };
-    return 0.5 * (azimuth(first) + azimuth(last));
-  };
-  // The part of the disc in shadow, from the unlit limb to the terminator
-  // φ_T = α − sign(α)·90° (with a margin for blur and the tilt's smear of
-  // the column means), can only show the body's ambient level: no
-  // Lambertian, scatter or glint reaches it (DESIGN.md §3). A rise there
-  // means the edge taken for the unlit limb is the terminator or beyond.
-  // `seen`, when given, is set when the shadow is flat and stands clearly
-  // above the background: a body seen in its own shadow, whose edge is its
-  // limb (a terminator is taken for a limb only where the body beyond it
-  // is as dark as the background).
-  // The background just beside the unlit limb, kBesidePx out, over the
-  // cylinder's usable rows (the ends' mount may stand beside the others). A
-  // gradient across the frame (a lit backdrop) and vignetting move the
-  // background's level between a side strip and the limb by as much as a
-  // dim body stands from it. Two models of it:
-  //  - the trend beyond the edge: a quadratic (gradient and vignetting)
-  //    through the mean levels kTrendFromPx..kTrendToPx outside it along
-  //    each row, carried in to kBesidePx. It holds only where those columns
-  //    are background: when the edge is not the limb they hold the body
-  //    (its texture, its roll-off, the limb's step), whose residuals stand
-  //    out of the means' noise: their mean square more than kPlainChi2Sigmas
-  //    standard deviations of χ²/dof above 1, with kNoiseAllowance for the
-  //    noise estimate's own error (a few per cent from the strip's MAD)
-  //    and mildly correlated noise;
-  //  - otherwise the line through the two side strips' medians.
-  constexpr int kBesidePx = 7, kTrendFromPx = 12, kTrendToPx = 200;
-  constexpr double kPlainChi2Sigmas = 4.0, kNoiseAllowance = 1.1;
-  const int strip = seen.side;
-  auto unlit_background = [&](const CylinderGeometry& c) {
-    const int unlit = options.phase_angle_rad > 0 ? -1 : 1;
-    const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
-    const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    std::vector<double> sum(kTrendToPx + 1, 0.0);
-    std::vector<int> count(kTrendToPx + 1, 0);
-    int rows = 0;
-    for (int y = c.top_row; y <= c.bottom_row; y += row_step, ++rows) {
-      const double limb = c.AxisColumn(y) + unlit * half;
-      for (int d = kTrendFromPx; d <= kTrendToPx; ++d) {
-        const int x = static_cast<int>(std::lround(limb + unlit * d));
-        if (x < region.x || x >= region.x + region.width) break;
-        sum[d] += luminance.At(x, y);
-        ++count[d];
-      }
-    }
-    std::vector<std::vector<double>> basis(3);
-    std::vector<double> level;
-    for (int d = kTrendFromPx; d <= kTrendToPx; ++d) {
-      if (count[d] < rows || rows == 0) continue;
-      const double u = (d - kBesidePx) / static_cast<double>(kTrendToPx);
-      basis[0].push_back(1.0);
-      basis[1].push_back(u);
-      basis[2].push_back(u * u);
-      level.push_back(sum[d] / count[d]);
-    }
-    auto strip_values = [&](int from) {
-      std::vector<double> values;
-      for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-        for (int x = from; x < from + strip; ++x) values.push_back(luminance.At(x, y));
-      }
-      return values;
-    };
-    const std::vector<double> lefts = strip_values(region.x);
-    const std::vector<double> rights = strip_values(region.x + region.width - strip);
-    if (lefts.empty() || rights.empty()) return std::numeric_limits<double>::quiet_NaN();
-    const double left = Median(lefts);
-    const double right = Median(rights);
-    // The noise of one pixel from the unlit side's strip about its own
-    // median (the detector's `noise` pools both strips about one level,
-    // which a gradient inflates).
-    std::vector<double> deviations;
-    for (double v : unlit < 0 ? lefts : rights) {
-      deviations.push_back(std::fabs(v - (unlit < 0 ? left : right)));
-    }
-    const double pixel_noise = 1.4826 * Median(deviations);
-    std::vector<double> coefficients;
-    const double rss = level.size() >= 16 ? LeastSquaresRss(basis, level, &coefficients)
-                                          : std::numeric_limits<double>::infinity();
-    const double mean_noise = pixel_noise / std::sqrt(std::max(rows, 1));
-    const double dof = static_cast<double>(level.size()) - 3.0;
-    if (std::isfinite(rss) &&
-        rss / dof <= kNoiseAllowance * kNoiseAllowance * mean_noise * mean_noise *
-                         (1.0 + kPlainChi2Sigmas * std::sqrt(2.0 / dof))) {
-      return coefficients[0];  // u = 0 at kBesidePx
-    }
-    const double x_left = region.x + 0.5 * (strip - 1);
-    const double x_right = region.x + region.width - 0.5 * (strip + 1);
-    const double x = c.center_x_px + unlit * (half + kBesidePx);
-    return left + (right - left) * (x - x_left) / std::max(1.0, x_right - x_left);
-  };
-  double shadow_level = std::numeric_limits<double>::quiet_NaN();
-  ShadowOnset shadow_onset;  // the last shadow judged, for the trace
-  auto shadow_is_flat = [&](const CylinderGeometry& c, bool* seen = nullptr) {
-    if (seen != nullptr) *seen = false;
-    const int side = options.phase_angle_rad > 0 ? 1 : -1;
-    const double phi_t = options.phase_angle_rad - side * M_PI / 2.0;
-    const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    const double smear = 3.0 + std::fabs(std::tan(c.axis_angle_rad)) * region.height / 2.0;
-    const double margin = 3.0 * M_PI / 180.0;
-    const double x_dark = c.center_x_px - side * half;
-    const double x_term = c.center_x_px + OffsetFromAzimuth(phi_t - side * margin, options.projection) * half;
-    const int lo = static_cast<int>(std::ceil(std::min(x_dark, x_term) + smear)) - region.x;
-    const int hi = static_cast<int>(std::floor(std::max(x_dark, x_term) - smear)) - region.x;
-    if (hi - lo < 4) return true;
-    std::vector<double> values;
-    for (int x = std::max(lo, 2); x <= std::min(hi, region.width - 3); ++x) {
-      double v = 0.0;
-      for (int k = -2; k <= 2; ++k) v += mean_profile[x + k];
-      values.push_back(v / 5.0);
-    }
-    if (values.size() < 4) return true;
-    std::sort(values.begin(), values.end());
-    // The scale: the surface's typical level over the disc (a maximum
-    // would be a clipped glint's).
-    std::vector<double> disc;
-    for (int x = static_cast<int>(std::ceil(c.center_x_px - half)) - region.x;
-         x <= static_cast<int>(std::floor(c.center_x_px + half)) - region.x; ++x) {
-      if (x >= 0 && x < region.width) disc.push_back(std::fabs(mean_profile[x] - background));
-    }
-    const double typical = disc.empty() ? 0.0 : Median(disc);
-    const double column_noise = noise / std::sqrt(5.0 * std::max(mean_rows, 1));
-    const ShadowOnset onset =
-        FindShadowOnset(mean_profile, lo, hi, c.center_x_px - region.x, half, side,
-                        options.projection, 6.0 * column_noise);
-    const bool flat = !onset.lit;
-    shadow_onset = onset;
-    if (seen != nullptr) {
-      shadow_level = values[values.size() / 2];
-      const double beside = unlit_background(c);
-      const double level = shadow_level - (std::isfinite(beside) ? beside : background);
-      *seen = flat && std::fabs(level) > std::max(kSeenShadowSigmas * column_noise,
-                                                  kSeenShadowShare * typical);
-    }
-    return flat;
-  };
-  // Just inside the unlit limb the surface is in shadow (|α| ≥ 20°): its
-  // pixels vary across rows by the noise and the cloth's texture, not by
-  // the comb of glints an edge of the specular lobe shows.
-  auto unlit_edge_is_smooth = [&](const CylinderGeometry& c) {
-    if (std::fabs(options.phase_angle_rad) < 20.0 * M_PI / 180.0) return true;
-    const int side = options.phase_angle_rad > 0 ? 1 : -1;
-    const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    std::vector<double> spreads;
-    std::vector<double> levels;
-    for (int k = 1; k <= 5; ++k) {
-      double sum = 0.0;
-      double sum_sq = 0.0;
-      int n = 0;
-      for (int y = c.top_row; y <= c.bottom_row; ++y) {
-        const int x = static_cast<int>(std::lround(c.AxisColumn(y) - side * (half - k)));
-        if (x < 0 || x >= luminance.width) continue;
-        const double v = luminance.At(x, y);
-        sum += v;
-        sum_sq += v * v;
-        ++n;
-      }
-      if (n < 3) continue;
-      const double mean = sum / n;
-      spreads.push_back(std::sqrt(std::max(0.0, sum_sq / n - mean * mean)));
-      levels.push_back(std::fabs(mean - background));
-    }
-    if (spreads.empty()) return true;
-    return Median(spreads) < 4.0 * noise + 0.3 * Median(levels);
-  };
-  // A limb is where the body meets the background: just beyond the edge
-  // taken for the unlit limb (4-10 px out, past a lens blur of a pixel or
-  // two, whose tail there is a few per cent of the step) the level must
-  // lie within kLimbOutsideShare of the way from the background (the strip
-  // on that side, for its gradient) to the body seen in shadow. Under stray
-  // light the body darkens toward its limb gradually (the diffuse light
-  // falls off as the surface turns away), and an edge found on that
-  // roll-off, the body continuing beyond it, is not the limb.
-  auto unlit_edge_meets_background = [&](const CylinderGeometry& c) {
-    if (!std::isfinite(shadow_level)) return true;
-    const int unlit = options.phase_angle_rad > 0 ? -1 : 1;
-    const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
-    const double local_background = unlit_background(c);
-    if (!std::isfinite(local_background)) return true;
-    double sum = 0.0;
-    int n = 0;
-    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-      for (int d = kBesidePx - 3; d <= kBesidePx + 3; ++d) {
-        const int x = static_cast<int>(std::lround(c.AxisColumn(y) + unlit * (half + d)));
-        if (x < region.x || x >= region.x + region.width) continue;
-        sum += luminance.At(x, y);
-        ++n;
-      }
-    }
-    if (n == 0) return true;
-    return !(std::fabs(sum / n - local_background) >
-             kLimbOutsideShare * std::fabs(shadow_level - local_background));
-  };
-  // The 20-80 % rise of an edge, px, from the mean over the usable rows
-  // of each row's pixels at a distance d inside it (along the row, the
-  // axis's tilt followed): a limb is a step blurred by the lens, a
-  // terminator taken for one a ramp (the Lambertian term grows from zero
-  // there). NaN when the edge has too little contrast to measure.
-  auto edge_rise_px = [&](const CylinderGeometry& c, int side) {
-    const double half = c.radius_px / std::cos(c.axis_angle_rad);
-    const int row_step = std::max(1, (c.bottom_row - c.top_row + 1) / 128);
-    constexpr int kOut = 4, kIn = 14;
-    std::vector<double> level(kOut + kIn + 1, 0.0);
-    int rows = 0;
-    for (int y = c.top_row; y <= c.bottom_row; y += row_step) {
-      const double edge = c.AxisColumn(y) + side * half;  // side −1: left
-      const double x_lo = edge - side * kIn, x_hi = edge + side * kOut;
-      if (std::min(x_lo, x_hi) < 0 || std::max(x_lo, x_hi) > luminance.width - 2) continue;
-      for (int d = -kOut; d <= kIn; ++d) {
-        const double x = edge - side * d;
-        const int x0 = static_cast<int>(std::floor(x));
-        const double t = x - x0;
-        level[d + kOut] += (1.0 - t) * luminance.At(x0, y) + t * luminance.At(x0 + 1, y);
-      }
-      ++rows;
-    }
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    if (rows < 3) return nan;
-    for (double& v : level) v /= rows;
-    const double outside = 0.5 * (level[0] + level[1]);
-    const double inside = 0.5 * (level[kOut + kIn] + level[kOut + kIn - 1]);
-    const double step = inside - outside;
-    if (!(std::fabs(step) > 8.0 * noise / std::sqrt(static_cast<double>(rows)))) return nan;
-    auto crossing = [&](double share) {
-      const double at = outside + share * step;
-      for (std::size_t i = 1; i < level.size(); ++i) {
-        if ((level[i - 1] - at) * (level[i] - at) <= 0.0 && level[i] != level[i - 1]) {
-          return (i - 1) + (at - level[i - 1]) / (level[i] - level[i - 1]);
-        }
-      }
-      return nan;
-    };
-    return crossing(0.8) - crossing(0.2);
-  };
+  auto lobe_azimuth = [&](const CylinderGeometry& c) { return LobeAzimuth(seen, c); };
+  auto edge_rise_px = [&](const CylinderGeometry& c, int side) { return EdgeRisePx(seen, c, side); };
   const double phi = lobe_azimuth(g);
   const double miss = std::fabs(phi - half_alpha);
-  bool shadow_seen = false;
-  const bool shadow_flat = shadow_is_flat(g, &shadow_seen);
+  const ShadowView shadow = JudgeShadow(seen, g);
+  bool shadow_seen = shadow.seen_in_shadow;
+  const bool shadow_flat = shadow.flat;
   // Only a body seen in shadow has a level to stand apart from.
-  const bool edge_is_limb = !shadow_seen || unlit_edge_meets_background(g);
+  const bool edge_is_limb = !shadow_seen || UnlitEdgeMeetsBackground(seen, g, shadow.level);
   if (!edge_is_limb) shadow_seen = false;
-  const bool smooth = unlit_edge_is_smooth(g);
+  const bool smooth = UnlitEdgeIsSmooth(seen, g);
   const bool flat = shadow_flat && smooth && edge_is_limb;
-  const ShadowOnset both_limbs_onset = shadow_onset;
+  const ShadowOnset& both_limbs_onset = shadow.onset;
   // With the unlit limb in shadow, an edge there that rises far more
   // slowly than the lit limb is a terminator: at α = −16° (640×480, a
   // Lambertian body as dark as the background) it stood 12 px inside the
