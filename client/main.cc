@@ -12,8 +12,6 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <CLI/CLI.hpp>
-#include <google/protobuf/struct.pb.h>
-#include <google/protobuf/util/json_util.h>
 #include <glog/logging.h>
 #include <cmath>
 #include <fstream>
@@ -242,17 +240,18 @@ int RunDetect(const DetectFlags& flags) {
   for (std::size_t index = 0; index < flags.images.size(); ++index) {
     const std::string& image = flags.images[index];
     absl::Status plot_error;
+    bool drawn = false;
     absl::StatusOr<DetectedCylinder> detected = [&]() -> absl::StatusOr<DetectedCylinder> {
       absl::StatusOr<std::string> bytes = ReadFile(image);
       if (!bytes.ok()) return bytes.status();
       absl::StatusOr<v1::RequestHeader> header = HeaderFor(flags.metadata, image, index, nullptr);
       if (!header.ok()) return header.status();
       return DetectWithPicture(flags.plot_dir, plot_names[index], image, *bytes, *header,
-                               &plot_error);
+                               &plot_error, &drawn);
     }();
-    if (!plot_error.ok()) std::cerr << "weavefit: " << image << ": " << plot_error.message() << "\n";
-    if (!flags.plot_dir.empty() && plot_error.ok() &&
-        (detected.ok() || detected.status().code() == absl::StatusCode::kInvalidArgument)) {
+    if (!plot_error.ok()) {
+      std::cerr << "weavefit: " << image << ": " << plot_error.message() << "\n";
+    } else if (drawn) {
       std::cerr << "weavefit: " << image << ": what detection saw is in " << flags.plot_dir << "/"
                 << plot_names[index] << "\n";
     }

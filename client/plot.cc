@@ -497,7 +497,9 @@ absl::Status WriteDetectionPlot(const DetectionTrace& trace, const std::string& 
       std::minmax_element(trace.column_means.begin(), trace.column_means.end());
   const double background = 0.5 * (trace.left_background + trace.right_background);
   const double column_noise = trace.noise / std::sqrt(std::max(1, trace.region.height));
-  const double zoom = std::max(25.0 * column_noise, 0.1 * (*hi_it - *lo_it));
+  // (A flat frame has neither: then a hair's width, for gnuplot's range.)
+  const double zoom = std::max({25.0 * column_noise, 0.1 * (*hi_it - *lo_it),
+                                1e-6 * std::max(1.0, std::fabs(background))});
   // The side strips, shaded; the edges all rows placed.
   std::string strips = absl::StrFormat(
       "set object 1 rect from %d, graph 0 to %d, graph 1 fc rgb '#eeeeee' fs solid noborder behind\n"
@@ -527,8 +529,13 @@ absl::Status WriteDetectionPlot(const DetectionTrace& trace, const std::string& 
       text.push_back(line);
     }
   }
+  constexpr std::size_t kTextLines = 12;  // the room below the charts
+  if (text.size() > kTextLines) {
+    text.resize(kTextLines);
+    text.back() += " …";
+  }
   std::string labels;
-  for (std::size_t i = 0; i < text.size() && i < 12; ++i) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
     absl::StrAppend(&labels, absl::StrFormat("set label %d %s at screen 0.02, screen %.4f font 'Sans,9'\n",
                                              100 + static_cast<int>(i), Quoted(text[i]),
                                              0.205 - 0.017 * i));
@@ -589,7 +596,8 @@ absl::StatusOr<DetectedCylinder> DetectWithPicture(const std::string& dir,
                                                    const std::string& image,
                                                    const std::string& image_bytes,
                                                    const v1::RequestHeader& header,
-                                                   absl::Status* plot_error) {
+                                                   absl::Status* plot_error, bool* drawn) {
+  *drawn = false;
   absl::StatusOr<Acquisition> acquisition = AcquisitionFromProto(header.acquisition());
   if (!acquisition.ok()) return acquisition.status();
   DetectionTrace trace;
@@ -610,6 +618,7 @@ absl::StatusOr<DetectedCylinder> DetectWithPicture(const std::string& dir,
   }
   *plot_error = WriteTracePicture(dir, file_name, image, image_bytes, trace,
                                   detected.ok() ? "cylinder found" : "cylinder not found", message);
+  *drawn = plot_error->ok();
   return detected;
 }
 

@@ -62,14 +62,15 @@ absl::StatusOr<bool> PlotRefusalInto(const std::string& dir, const std::string& 
 // The cylinder of one photograph as its estimate would detect it (the
 // header's acquisition; a given cylinder is ignored), for `weavefit detect`;
 // with a non-empty `dir`, also the picture of what detection saw, found or
-// refused, in DIR/`file_name` (WriteDetectionPlot; its own error goes to
-// `plot_error`, and the detection's result stands).
+// refused, in DIR/`file_name` (WriteDetectionPlot; `drawn` says whether it
+// was, which needs detection to have read the photograph; the picture's own
+// error goes to `plot_error`, and the detection's result stands).
 absl::StatusOr<DetectedCylinder> DetectWithPicture(const std::string& dir,
                                                    const std::string& file_name,
                                                    const std::string& image,
                                                    const std::string& image_bytes,
                                                    const v1::RequestHeader& header,
-                                                   absl::Status* plot_error);
+                                                   absl::Status* plot_error, bool* drawn);
 
 // PlotRefusalInto for `estimate` and `submit`: says on stderr what it wrote
 // or why it could not (a refusal's own error is the caller's to report).
