@@ -621,6 +621,9 @@ int main(int argc, char** argv) {
   detect->add_option("images", detect_flags.images, "photographs (PNG, TIFF, JPEG, EXR)")
       ->required();
   weavefit::AddMetadataFlags(detect, &detect_flags.metadata);
+  // Detection alone: no cylinder to give, no mode to choose.
+  detect->remove_option(detect->get_option("--cylinder"));
+  detect->remove_option(detect->get_option("--mode"));
   detect->add_flag("--json", detect_flags.json,
                    "one JSON object per image: {\"image\", \"cylinder\"} or {\"image\", \"error\"}");
   detect->add_option("--plot", detect_flags.plot_dir,
