@@ -2011,12 +2011,13 @@ double LimbPlacer::ThroughBlur(int inward, const std::vector<LimbPoint>& first, 
 }
 
 PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
-  std::vector<LimbPoint> left_points;
-  std::vector<LimbPoint> right_points;
+  PlacedLimbs placed;
+  std::vector<LimbPoint>& left_points = placed.left_points;
+  std::vector<LimbPoint>& right_points = placed.right_points;
   ForBothLimbs([&] { left_points = RefineLimb(+1, std::numeric_limits<double>::quiet_NaN()); },
                [&] { right_points = RefineLimb(-1, std::numeric_limits<double>::quiet_NaN()); });
-  double left_held_px = 0.0;
-  double right_held_px = 0.0;
+  double& left_held_px = placed.left_held_px;
+  double& right_held_px = placed.right_held_px;
   // One lens blurs both limbs alike, so each limb's fit proposes a blur and
   // the smaller is taken for both (or the one proposal, below): what looks
   // like blur at one limb only is something else there (a rim of clipped
@@ -2042,7 +2043,8 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   // ramp that would pass for blur: at −120°, taken for it, the lit limb came
   // out a pixel in.)
   const bool alone = shadow_is_limb || std::fabs(options_.phase_angle_rad) < 0.5 * M_PI;
-  double sigma = lens_sigma(alone);
+  double& sigma = placed.sigma;
+  sigma = lens_sigma(alone);
   if (sigma >= kMaxBlurPx - kAtCapPx) {
     // The blur at the cap: refitted through wider windows, over wider blurs
     // (the narrow windows' fit is kept where a wide one fails).
@@ -2065,9 +2067,9 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   // a lens blur of 1, 1.3 and 2 px (100°, 640×480, noise-free; the proposal
   // 1.03 px, then at the cap). That limb's allowance says so: 1.5 px per px²
   // of the proposal.
-  double left_systematic_px = kLimbSystematicPx;
-  double right_systematic_px = kLimbSystematicPx;
-  double unused_blur_px = 0.0;
+  double& left_systematic_px = placed.left_systematic_px;  // kLimbSystematicPx unless below
+  double& right_systematic_px = placed.right_systematic_px;
+  double& unused_blur_px = placed.unused_blur_px;
   if (!alone && std::isfinite(left_try.scatter) && std::isfinite(right_try.scatter) &&
       left_try.whole != right_try.whole) {
     const double proposal = left_try.whole ? left_try.blur.sigma : right_try.blur.sigma;
@@ -2107,8 +2109,8 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
       blur_stderr_px = 0.5 * std::fabs(upper.blur.sigma - lower.blur.sigma);
     }
   }
-  double left_through_blur_px = 0.0;
-  double right_through_blur_px = 0.0;
+  double& left_through_blur_px = placed.left_through_blur_px;
+  double& right_through_blur_px = placed.right_through_blur_px;
   auto place_limb = [&](int inward) {
     std::vector<LimbPoint>& points = inward > 0 ? left_points : right_points;
     const LimbFit fit = JointLimb(inward, points, &lens);
@@ -2137,17 +2139,6 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
         HeldShift(inward, fit);
   };
   ForBothLimbs([&] { place_limb(+1); }, [&] { place_limb(-1); });
-  PlacedLimbs placed;
-  placed.left_points = std::move(left_points);
-  placed.right_points = std::move(right_points);
-  placed.left_held_px = left_held_px;
-  placed.right_held_px = right_held_px;
-  placed.left_systematic_px = left_systematic_px;
-  placed.right_systematic_px = right_systematic_px;
-  placed.left_through_blur_px = left_through_blur_px;
-  placed.right_through_blur_px = right_through_blur_px;
-  placed.sigma = sigma;
-  placed.unused_blur_px = unused_blur_px;
   return placed;
 }
 
