@@ -381,35 +381,70 @@ void SetBlur(EdgeWindow* w, const Blur& blur) {
   w->blur = &blur;
 }
 
+// The kernel's shares of the cells through a blur, once per edge position:
+// a cell is a quarter pixel, so the kernel at cell k's centre seen from
+// pixel x depends on q = k − inward·4x alone. `shares[q − q_lo]` holds it
+// (BlurKernel's table, interpolated linearly; zero beyond its reach), and
+// `prefix` its running sum, for a pixel's covered share.
+struct CellShares {
+  int q_lo = 0;
+  std::vector<double> shares;
+  std::vector<double> prefix;  // prefix[j] = Σ shares[0..j)
+};
+
+constexpr int kCellsPerPx = 4;
+static_assert(kCellsPerPx * kCellPx == 1.0, "a pixel holds a whole number of cells");
+
+void SampleCellShares(const EdgeWindow& w, double e, CellShares* out) {
+  const Blur& blur = *w.blur;
+  const std::vector<double>& kernel = blur.kernel;
+  const double last = static_cast<double>(kernel.size() - 1);
+  // The kernel's table position of offset q: t = inward·(q + ½)·kCellPx +
+  // e + reach, in steps of kKernelStepPx; it covers t in [0, last·step).
+  const double span = last * kKernelStepPx;
+  const double a = (-e - blur.reach) / kCellPx - 0.5;          // t = 0
+  const double b = (span - e - blur.reach) / kCellPx - 0.5;    // t = span
+  const double lo = w.inward > 0 ? a : -b;
+  const double hi = w.inward > 0 ? b : -a;
+  out->q_lo = static_cast<int>(std::floor(lo)) - 1;
+  const int n = static_cast<int>(std::ceil(hi)) + 1 - out->q_lo + 1;
+  out->shares.resize(n);
+  out->prefix.resize(n + 1);
+  out->prefix[0] = 0.0;
+  const double step = w.inward * kCellPx / kKernelStepPx;
+  double at = (w.inward * (out->q_lo + 0.5) * kCellPx + e + blur.reach) / kKernelStepPx;
+  for (int j = 0; j < n; ++j, at += step) {
+    double share = 0.0;
+    if (at >= 0.0 && at < last) {
+      const int m = static_cast<int>(at);
+      const double f = at - m;
+      share = (1.0 - f) * kernel[m] + f * kernel[m + 1];
+    }
+    out->shares[j] = share;
+    out->prefix[j + 1] = out->prefix[j] + share;
+  }
+}
+
 EdgeSums SumsAt(const EdgeWindow& w, double e) {
   EdgeSums t;
+  thread_local CellShares cells;
+  if (w.blur != nullptr) SampleCellShares(w, e, &cells);
+  const int n_shares = static_cast<int>(cells.shares.size());
+  const int n_cells = static_cast<int>(w.cell_integral.size());
   for (int x : w.xs) {
     double c = 0.0;  // covered share
     double i = 0.0;  // grazing integral
     if (w.blur != nullptr) {
       // Through the lens blur: each cell's coverage and grazing integral
-      // spread over the pixels by the kernel, over the cells within its
-      // reach of the pixel's centre; the background fills the rest.
-      const double reach = w.blur->reach;
-      const double near = w.inward * (x - e) - reach;
-      const double far = w.inward * (x - e) + reach;
-      const int k_lo = std::max(0, static_cast<int>(std::floor(near / kCellPx - 0.5)));
-      const int k_hi = std::min(static_cast<int>(w.cell_integral.size()) - 1,
-                                static_cast<int>(std::ceil(far / kCellPx - 0.5)));
-      // A pixel's share of each cell: the kernel (BlurKernel's table,
-      // interpolated linearly) at the cell's centre u = e + inward·(k +
-      // 0.5)·kCellPx less x, stepped through the table cell by cell.
-      const std::vector<double>& kernel = w.blur->kernel;
-      const double last = static_cast<double>(kernel.size() - 1);
-      const double step = w.inward * kCellPx / kKernelStepPx;
-      double at = (e + w.inward * (k_lo + 0.5) * kCellPx - x + reach) / kKernelStepPx;
-      for (int k = k_lo; k <= k_hi; ++k, at += step) {
-        if (!(at >= 0.0) || at >= last) continue;
-        const int j = static_cast<int>(at);
-        const double f = at - j;
-        const double share = (1.0 - f) * kernel[j] + f * kernel[j + 1];
-        c += share * kCellPx;
-        i += share * w.cell_integral[k];
+      // spread over the pixels by the kernel; the background fills the rest.
+      // Cell k is share j = k − inward·4x − q_lo.
+      const int shift = -w.inward * kCellsPerPx * x - cells.q_lo;
+      const int k_lo = std::max(0, -shift);
+      const int k_hi = std::min(n_cells - 1, n_shares - 1 - shift);
+      if (k_hi >= k_lo) {
+        c = kCellPx * (cells.prefix[k_hi + shift + 1] - cells.prefix[k_lo + shift]);
+        const double* share = cells.shares.data() + shift;
+        for (int k = k_lo; k <= k_hi; ++k) i += share[k] * w.cell_integral[k];
       }
     } else {
       const double d_lo = w.inward > 0 ? x - 0.5 - e : e - x - 0.5;
@@ -724,14 +759,15 @@ BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
   std::vector<double> sum(region.width, 0.0);
   std::vector<int> count(region.width, 0);
   for (int y : rows) {
-    const double shift = slope * (y - center_row);
+    // Column x reads between x0 = x + whole and x0 + 1, at t beyond x0.
+    const double at = region.x + slope * (y - center_row);
+    const int whole = static_cast<int>(std::floor(at));
+    const double t = at - whole;
     const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width];
-    for (int x = 0; x < region.width; ++x) {
-      const double at = region.x + x + shift;
-      const int x0 = static_cast<int>(std::floor(at));
-      if (x0 < region.x || x0 + 1 >= region.x + region.width) continue;
-      const double t = at - x0;
-      sum[x] += (1.0 - t) * row[x0] + t * row[x0 + 1];
+    const int x_lo = std::max(0, region.x - whole);
+    const int x_hi = std::min(region.width - 1, region.x + region.width - 2 - whole);
+    for (int x = x_lo; x <= x_hi; ++x) {
+      sum[x] += (1.0 - t) * row[x + whole] + t * row[x + whole + 1];
       ++count[x];
     }
   }
