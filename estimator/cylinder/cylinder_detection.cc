@@ -217,6 +217,10 @@ struct EdgeWindow {
   std::vector<double> cell_integral;
   // Extra pixels at each end of the window for a wide lens blur (WidePad).
   int pad = 0;
+  // The body's diffuse shading under a broad stray source, R·cos φ, held
+  // (LimbPlacer::RollOff; zero: none), and each cell's ∫cos φ (SetBlur).
+  double rolloff = 0.0;
+  std::vector<double> cell_cos;
 };
 
 constexpr double kCellPx = 0.25;
@@ -326,6 +330,16 @@ double CappedGrazingIntegral(double r, double lo, double hi) {
   return sum;
 }
 
+// ∫ cos φ dd over [lo, hi] at depths d inside a limb of radius r (sin φ =
+// 1 − d/r): with u = 1 − d/r, r·[F(u)] for F(u) = ½(u·√(1 − u²) + asin u).
+double CosIntegral(double r, double lo, double hi) {
+  auto f = [](double u) {
+    u = std::clamp(u, -1.0, 1.0);
+    return 0.5 * (u * std::sqrt(1.0 - u * u) + std::asin(u));
+  };
+  return hi > lo ? r * (f(1.0 - lo / r) - f(1.0 - hi / r)) : 0.0;
+}
+
 // A pixel's share of a point at offset t from its centre through a Gaussian
 // lens blur σ, tabulated every kKernelStepPx out to 0.5 + 3σ.
 std::vector<double> BlurKernel(double sigma, double* reach) {
@@ -376,6 +390,7 @@ void SetBlur(EdgeWindow* w, const Blur& blur) {
       const double lo = std::max(k * kCellPx, w->lit_from);
       const double hi = (k + 1) * kCellPx;
       w->cell_integral.push_back(hi > lo ? CappedGrazingIntegral(w->r, lo, hi) : 0.0);
+      if (w->rolloff != 0.0) w->cell_cos.push_back(CosIntegral(w->r, k * kCellPx, hi));
     }
   }
   w->blur = &blur;
@@ -432,8 +447,9 @@ EdgeSums SumsAt(const EdgeWindow& w, double e) {
   const int n_shares = static_cast<int>(cells.shares.size());
   const int n_cells = static_cast<int>(w.cell_integral.size());
   for (int x : w.xs) {
-    double c = 0.0;  // covered share
-    double i = 0.0;  // grazing integral
+    double c = 0.0;        // covered share
+    double i = 0.0;        // grazing integral
+    double shading = 0.0;  // ∫cos φ over the covered share
     if (w.blur != nullptr) {
       // Through the lens blur: each cell's coverage and grazing integral
       // spread over the pixels by the kernel; the background fills the rest.
@@ -445,6 +461,9 @@ EdgeSums SumsAt(const EdgeWindow& w, double e) {
         c = kCellPx * (cells.prefix[k_hi + shift + 1] - cells.prefix[k_lo + shift]);
         const double* share = cells.shares.data() + shift;
         for (int k = k_lo; k <= k_hi; ++k) i += share[k] * w.cell_integral[k];
+        if (w.rolloff != 0.0) {
+          for (int k = k_lo; k <= k_hi; ++k) shading += share[k] * w.cell_cos[k];
+        }
       }
     } else {
       const double d_lo = w.inward > 0 ? x - 0.5 - e : e - x - 0.5;
@@ -452,8 +471,9 @@ EdgeSums SumsAt(const EdgeWindow& w, double e) {
       const double hi = std::max(lo, d_lo + 1.0);
       c = hi - lo;
       i = hi > w.lit_from ? CappedGrazingIntegral(w.r, std::max(lo, w.lit_from), hi) : 0.0;
+      if (w.rolloff != 0.0) shading = CosIntegral(w.r, lo, hi);
     }
-    const double y = (*w.v)[x] - w.background * (1.0 - c);
+    const double y = (*w.v)[x] - w.background * (1.0 - c) - w.rolloff * shading;
     t.cc += c * c;
     t.ci += c * i;
     t.ii += i * i;
@@ -491,18 +511,20 @@ HeldFit Held(const EdgeSums& t) {
 // cylinder's own shadow: DESIGN.md §3 has no scatter there) S is held at
 // zero: fitted, noise alone makes it positive half the time (it is held at
 // zero when negative), and its rise at the limb then pulls the edge inward
-// (0.03-0.07 px at a body 0.02 above the background).
+// (0.03-0.07 px at a body 0.02 above the background). A body shaded by a
+// broad stray source adds `rolloff`·cos φ, held (LimbPlacer::RollOff).
 double RefineEdge(const std::vector<double>& v, double background, double e0, int inward,
                   double radius_px, bool glints_may_reach, bool lit,
                   double fixed_scatter = std::numeric_limits<double>::quiet_NaN(),
                   double* scatter_out = nullptr, const Blur& blur = Blur(),
                   double center = std::numeric_limits<double>::quiet_NaN(),
                   double lit_from = 0.0, int pad = 0,
-                  const std::vector<std::uint8_t>* clipped = nullptr) {
+                  const std::vector<std::uint8_t>* clipped = nullptr, double rolloff = 0.0) {
   if (scatter_out != nullptr) *scatter_out = std::numeric_limits<double>::quiet_NaN();
   EdgeWindow w = MakeEdgeWindow(v, background, e0, inward, radius_px, glints_may_reach, lit_from,
                                 pad, RampPx(blur), clipped);
   if (w.xs.empty()) return e0;
+  w.rolloff = rolloff;
   SetBlur(&w, blur);
   double best_e = e0;
   double best_scatter = 0.0;
@@ -1305,6 +1327,9 @@ struct SeenPhotograph {
   int mean_rows = 0;
   int side = 0;  // the side strips' width, px
   const CylinderDetectionOptions& options;
+  // The body inside the unlit edge rises as a limb's stray-light shading,
+  // not as a terminator's ramp (Shading::ExplainsSoftEdge).
+  bool unlit_shading_rise = false;
 };
 
 // Where the lobe stands on cylinder `c`: the mean azimuth of its two ends.
@@ -1620,7 +1645,9 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
   // this cylinder: direct light beginning there (TerminatorSeen) makes the
   // edge beyond the body in shadow its limb, however soft that limb's
   // rise (a stray-lit body darkens toward its limb as the surface turns
-  // from the diffuse light).
+  // from the diffuse light); or unless the strip inside the edge rises as
+  // that shading does rather than as a terminator's ramp
+  // (SeenPhotograph::unlit_shading_rise).
   bool soft_unlit = false;
   double lit_rise = std::numeric_limits<double>::quiet_NaN();
   double unlit_rise = std::numeric_limits<double>::quiet_NaN();
@@ -1630,6 +1657,7 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
     unlit_rise = edge_rise_px(g, -light_side);
     soft_unlit = std::isfinite(unlit_rise) &&
                  unlit_rise > kSoftEdgePx + (std::isfinite(lit_rise) ? lit_rise : 0.0) &&
+                 !seen.unlit_shading_rise &&
                  !TerminatorSeen(mean_profile, region, g, options, noise, mean_rows);
   }
   std::string why_not_inferred;
@@ -1653,6 +1681,9 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
                                                    unlit_rise, lit_rise));
   }
   if (soft_unlit) absl::StrAppend(&both_verdict, " (a terminator's ramp)");
+  if (std::isfinite(unlit_rise) && seen.unlit_shading_rise) {
+    absl::StrAppend(&both_verdict, " (the unlit limb's shading)");
+  }
   auto note = [&](const std::string& name, const CylinderGeometry& c, bool kept,
                   const std::string& verdict) {
     if (trace != nullptr) trace->hypotheses.push_back({name, c, kept, verdict});
@@ -1745,10 +1776,35 @@ struct LimbFit {
   double scatter_stderr = 0.0;
 };
 
+// The stray-light shading inside the limb away from the light
+// (LimbPlacer::RollOff): R, and how many bands' strips it explains better
+// than a terminator's ramp, of how many.
+struct Shading {
+  double rolloff = 0.0;
+  int shading_votes = 0;
+  int bands = 0;
+  // More bands say the soft rise is the shading of a limb than chance
+  // would give: a sign test, P(at least that many of `bands` | ½ each) at
+  // most kChance, over at least kMinShadingBands.
+  bool ExplainsSoftEdge() const {
+    constexpr double kChance = 0.01;
+    constexpr int kMinShadingBands = 10;
+    if (bands < kMinShadingBands) return false;
+    double tail = 0.0;  // Σ_{k ≥ votes} C(bands, k) / 2^bands
+    double term = std::pow(0.5, bands);  // C(bands, 0) / 2^bands
+    for (int k = 0; k <= bands; ++k) {
+      if (k >= shading_votes) tail += term;
+      term *= static_cast<double>(bands - k) / (k + 1);
+    }
+    return tail <= kChance;
+  }
+};
+
 // The limbs placed in every band to a fraction of a pixel, with what their
 // errors need: the stages of DetectWithSideStrips between the bands' first
 // estimates and the limb lines.
 struct PlacedLimbs {
+  Shading unlit_shading;
   std::vector<LimbPoint> left_points;
   std::vector<LimbPoint> right_points;
   // The held scatter's common shift of each limb (HeldShift), px.
@@ -1764,6 +1820,30 @@ struct PlacedLimbs {
   double unused_blur_px = 0.0;  // a proposal not used (CylinderGeometry)
 };
 
+// What one band's profile shows of the background beside a limb at `edge`:
+// the sums of its level v over t = kGapPx .. kGapPx + kSpanPx − 1 px
+// outside it. kGapPx clears a lens blur's tail (3σ at the first fit's cap).
+struct BesideLimb {
+  int n = 0;
+  double st = 0.0, sv = 0.0, stt = 0.0, stv = 0.0;
+};
+BesideLimb MeasureBesideLimb(const std::vector<double>& profile, double edge, int inward) {
+  constexpr int kGapPx = 5;
+  constexpr int kSpanPx = 24;
+  BesideLimb b;
+  const int n_columns = static_cast<int>(profile.size());
+  for (int k = kGapPx; k < kGapPx + kSpanPx; ++k) {
+    const int x = static_cast<int>(std::floor(edge)) - inward * k;
+    if (x < 0 || x >= n_columns) return BesideLimb();  // the frame cuts it
+    b.st += k;
+    b.sv += profile[x];
+    b.stt += static_cast<double>(k) * k;
+    b.stv += k * profile[x];
+    ++b.n;
+  }
+  return b;
+}
+
 // Each limb to a fraction of a pixel (RefineEdge) in every band, twice: the
 // grazing scatter's strength S is the same along a limb, so the second pass
 // holds it at one value for all bands; and through one lens blur for both
@@ -1773,6 +1853,10 @@ class LimbPlacer {
   LimbPlacer(const std::vector<BandEdges>& bands_seen, const PixelRegion& region,
              double center_row, const CylinderDetectionOptions& options)
       : bands_seen_(bands_seen), region_(region), center_row_(center_row), options_(options) {
+    for (const BandEdges& band : bands_seen) {
+      background_[0].push_back(band.left_background);
+      background_[1].push_back(band.right_background);
+    }
     light_ = std::isfinite(options.phase_angle_rad) ? (options.phase_angle_rad > 0 ? 1 : -1) : 0;
     glints_reach_limb_ = light_ != 0 && std::fabs(options.phase_angle_rad) >= kGlintsReachLimbRad;
     shadowed_limb_ = light_ != 0 && std::fabs(options.phase_angle_rad) >= kShadowedLimbRad;
@@ -1829,6 +1913,13 @@ class LimbPlacer {
   // refitted with the blur, or held at zero at a limb in shadow).
   double ThroughBlur(int inward, const std::vector<LimbPoint>& first, bool held_zero,
                      double sigma, double blur_stderr_px) const;
+  // The shading R of a body in stray light at the limb away from the light,
+  // from a wide strip inside the line through `points` (0: none seen).
+  Shading RollOff(int inward, const std::vector<LimbPoint>& points, double from_px) const;
+  // The background under each band's limbs at the lines through `left` and
+  // `right`, for the bands on them (MeasureBesideLimb).
+  void SetLocalBackgrounds(const std::vector<LimbPoint>& left,
+                           const std::vector<LimbPoint>& right);
 
   const std::vector<BandEdges>& bands_seen_;
   const PixelRegion& region_;
@@ -1843,6 +1934,12 @@ class LimbPlacer {
   // Pixels added to each end of the edge windows (WidePad): 0 until the
   // lens blur is found at the first fit's cap.
   int pad_ = 0;
+  // Each limb's held stray-light shading R (RollOff), left and right.
+  double rolloff_[2] = {0.0, 0.0};
+  // The background under each band's limbs, left and right: the side
+  // strips' levels, then the local ones at the first pass's lines
+  // (SetLocalBackgrounds).
+  std::vector<double> background_[2];
   // ... but not at a limb the glints may reach, whose window they cut short
   // (a wide window took them in and drew that limb inward): it is seen
   // through the blur the other limb proposes.
@@ -1873,13 +1970,13 @@ std::vector<LimbPoint> LimbPlacer::RefineLimb(int inward, double scatter, const 
     }
     points.push_back(
         {band.row, region_.x + RefineEdge(band.profile,
-                                         inward > 0 ? band.left_background
-                                                    : band.right_background,
+                                         background_[inward > 0 ? 0 : 1][i],
                                          e0, inward, band.radius,
                                          glints_reach_limb_ && toward_light,
                                          !shadowed_limb_ || toward_light, scatter, nullptr, blur,
                                          center, LitFrom(toward_light, band.radius),
-                                         LimbPad(toward_light), &band.clipped)});
+                                         LimbPad(toward_light), &band.clipped,
+                                         rolloff_[inward > 0 ? 0 : 1])});
   }
   return points;
 }
@@ -1895,12 +1992,13 @@ LimbFit LimbPlacer::JointLimb(int inward, const std::vector<LimbPoint>& first,
     if (!line.inlier[i] || (use_band != nullptr && !(*use_band)[i])) continue;
     const BandEdges& band = bands_seen_[i];
     EdgeWindow w = MakeEdgeWindow(
-        band.profile, inward > 0 ? band.left_background : band.right_background,
+        band.profile, background_[inward > 0 ? 0 : 1][i],
         inward > 0 ? band.left_cross : band.right_cross, inward,
         band.radius, glints_reach_limb_ && toward_light, LitFrom(toward_light, band.radius),
         LimbPad(toward_light), fixed_blur != nullptr ? RampPx(*fixed_blur) : 0.0,
         &band.clipped);
     if (w.xs.empty()) continue;
+    w.rolloff = rolloff_[inward > 0 ? 0 : 1];
     windows.push_back(std::move(w));
     edges.push_back(line.at_center + line.slope * (band.row - center_row_) - region_.x);
   }
@@ -2046,10 +2144,153 @@ double LimbPlacer::ThroughBlur(int inward, const std::vector<LimbPoint>& first, 
   return std::isfinite(move) ? move : 0.0;
 }
 
+// A body in stray light is shaded like any diffuse surface under a broad
+// source, a + R·cos φ (DESIGN.md §3: stray light reaches the whole body; a
+// source on the camera's side lights the middle fully and the limb at
+// grazing incidence). Near the limb cos φ ≈ √(2d/r) rises steeply, and a
+// flat body level meets it only some pixels in: the edge model follows it
+// there. R is measured where nothing else lights the body: inside the limb
+// away from the light, from `from_px` (past the edge's blur) to half the
+// radius, and short of the terminator (by a fifth of its depth: the weave's
+// relief and the source's size soften it), about a line most bands agree
+// on (where they do not, the first estimates are still far off: a mount,
+// vignetting). Each band gives the least-squares R of v = B + R·cos φ
+// about its edge on the line; R is their mean, kept when it stands
+// kSigmas of its standard error (the bands' scatter) from zero.
+// The same strip also tells a limb from a terminator taken for one: past
+// a terminator the direct light grows linearly with the depth, v = B + k·d
+// (the Lambertian term from zero); the shading's √d rises at once and
+// levels off. Each band votes for the model with the smaller residual.
+Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
+                            double from_px) const {
+  constexpr double kMinStripPx = 24.0;  // cos φ's curvature needs a few tens of px
+  constexpr double kSigmas = 4.0;
+  Shading shading;
+  const bool toward_light = inward > 0 ? light_ < 0 : light_ > 0;
+  if (light_ == 0 || toward_light || points.size() < 3) return shading;
+  const Line line = FitLimbLine(points, center_row_);
+  const auto on_line = std::count(line.inlier.begin(), line.inlier.end(), true);
+  if (2 * on_line < static_cast<long>(points.size())) return shading;
+  const double alpha = std::fabs(options_.phase_angle_rad);
+  std::vector<double> per_band;
+  for (std::size_t i = 0; i < bands_seen_.size() && i < points.size(); ++i) {
+    if (!line.inlier[i]) continue;
+    const BandEdges& band = bands_seen_[i];
+    const double r = band.radius;
+    double depth = 0.5 * r;
+    if (alpha < 0.5 * M_PI) depth = std::min(depth, 0.8 * r * (1.0 - std::cos(alpha)));
+    if (!(depth - from_px >= kMinStripPx)) continue;
+    const double e = line.at_center + line.slope * (band.row - center_row_) - region_.x;
+    const int n_columns = static_cast<int>(band.profile.size());
+    // Sums for v on cos φ (c) and on the depth (d).
+    double sc = 0.0, sd = 0.0, sv = 0.0, scc = 0.0, sdd = 0.0, scv = 0.0, sdv = 0.0, svv = 0.0;
+    int n = 0;
+    for (int k = static_cast<int>(std::ceil(from_px)); k <= static_cast<int>(depth); ++k) {
+      const int x = static_cast<int>(std::lround(e + inward * k));
+      if (x < 0 || x >= n_columns) break;
+      if (!band.clipped.empty() && band.clipped[x] != 0) continue;
+      const double d = inward * (x - e);
+      const double u = 1.0 - d / r;
+      const double c = std::sqrt(std::max(0.0, 1.0 - u * u));
+      const double v = band.profile[x];
+      sc += c;
+      sd += d;
+      sv += v;
+      scc += c * c;
+      sdd += d * d;
+      scv += c * v;
+      sdv += d * v;
+      svv += v * v;
+      ++n;
+    }
+    if (n < kMinStripPx) continue;
+    const double vcc = scc - sc * sc / n, vdd = sdd - sd * sd / n;
+    const double vcv = scv - sc * sv / n, vdv = sdv - sd * sv / n, vvv = svv - sv * sv / n;
+    if (!(vcc > 0.0 && vdd > 0.0)) continue;
+    per_band.push_back(vcv / vcc);
+    if (vvv - vcv * vcv / vcc < vvv - vdv * vdv / vdd) ++shading.shading_votes;
+  }
+  shading.bands = static_cast<int>(per_band.size());
+  if (per_band.size() < 3) return shading;
+  double mean = 0.0;
+  for (double v : per_band) mean += v;
+  mean /= per_band.size();
+  double var = 0.0;
+  for (double v : per_band) var += (v - mean) * (v - mean);
+  const double stderr_r = std::sqrt(var / (per_band.size() - 1) / per_band.size());
+  if (std::fabs(mean) > kSigmas * stderr_r) shading.rolloff = mean;
+  return shading;
+}
+
+// The backdrop's gradient and vignetting move the background at a limb
+// away from the side strip's level, by as much as a stray-lit body stands
+// from it, and an edge model on the strip's level takes the difference for
+// body. The background beside each band's limb (MeasureBesideLimb) is
+// carried on to the limb along one slope for the whole limb, and the
+// levels so found follow a quadratic along the limb (vignetting, 1 − k·ρ²,
+// is one along a line; a gradient, a straight line): one band's own would
+// carry its noise into its edge. Bands off the line (a mount, an end, not
+// yet placed) and limbs with fewer than kMinBands keep the strip's level.
+void LimbPlacer::SetLocalBackgrounds(const std::vector<LimbPoint>& left,
+                                     const std::vector<LimbPoint>& right) {
+  constexpr int kMinBands = 5;
+  for (int side = 0; side < 2; ++side) {
+    const int inward = side == 0 ? +1 : -1;
+    const Line line = FitLimbLine(side == 0 ? left : right, center_row_);
+    std::vector<std::size_t> used;
+    std::vector<BesideLimb> beside;
+    double vtt = 0.0, vtv = 0.0;
+    for (std::size_t i = 0; i < bands_seen_.size() && i < line.inlier.size(); ++i) {
+      if (!line.inlier[i]) continue;
+      const double edge =
+          line.at_center + line.slope * (bands_seen_[i].row - center_row_) - region_.x;
+      const BesideLimb b = MeasureBesideLimb(bands_seen_[i].profile, edge, inward);
+      if (b.n == 0) continue;
+      used.push_back(i);
+      beside.push_back(b);
+      vtt += b.stt - b.st * b.st / b.n;
+      vtv += b.stv - b.st * b.sv / b.n;
+    }
+    if (static_cast<int>(used.size()) < kMinBands || !(vtt > 0.0)) continue;
+    const double slope = vtv / vtt;
+    // Each band's level at its limb (t = 0), then a quadratic in the row.
+    cv::Mat a(static_cast<int>(used.size()), 3, CV_64F);
+    cv::Mat y(static_cast<int>(used.size()), 1, CV_64F);
+    const double scale = std::max(1.0, 0.5 * region_.height);
+    for (std::size_t k = 0; k < used.size(); ++k) {
+      const double u = (bands_seen_[used[k]].row - center_row_) / scale;
+      a.at<double>(static_cast<int>(k), 0) = 1.0;
+      a.at<double>(static_cast<int>(k), 1) = u;
+      a.at<double>(static_cast<int>(k), 2) = u * u;
+      y.at<double>(static_cast<int>(k), 0) = (beside[k].sv - slope * beside[k].st) / beside[k].n;
+    }
+    cv::Mat c;
+    if (!cv::solve(a, y, c, cv::DECOMP_SVD)) continue;
+    for (std::size_t k = 0; k < used.size(); ++k) {
+      const double u = (bands_seen_[used[k]].row - center_row_) / scale;
+      background_[side][used[k]] =
+          c.at<double>(0, 0) + c.at<double>(1, 0) * u + c.at<double>(2, 0) * u * u;
+    }
+  }
+}
+
 PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   PlacedLimbs placed;
   std::vector<LimbPoint>& left_points = placed.left_points;
   std::vector<LimbPoint>& right_points = placed.right_points;
+  ForBothLimbs([&] { left_points = RefineLimb(+1, std::numeric_limits<double>::quiet_NaN()); },
+               [&] { right_points = RefineLimb(-1, std::numeric_limits<double>::quiet_NaN()); });
+  // Placed again on the background at each limb's line, and the limb away
+  // from the light, where it is one (below 90° it is; from 90° on when
+  // DetectWithSideStrips says so), in the body's stray-light shading
+  // (RollOff; measured again below, once the lens blur is known).
+  SetLocalBackgrounds(left_points, right_points);
+  const bool away_is_limb = shadow_is_limb || std::fabs(options_.phase_angle_rad) < 0.5 * M_PI;
+  const bool shaded = light_ != 0 && away_is_limb;
+  const int away = light_ > 0 ? +1 : -1;
+  std::vector<LimbPoint>& away_points = away > 0 ? left_points : right_points;
+  double& away_rolloff = rolloff_[away > 0 ? 0 : 1];
+  if (shaded) away_rolloff = RollOff(away, away_points, 2.0).rolloff;
   ForBothLimbs([&] { left_points = RefineLimb(+1, std::numeric_limits<double>::quiet_NaN()); },
                [&] { right_points = RefineLimb(-1, std::numeric_limits<double>::quiet_NaN()); });
   double& left_held_px = placed.left_held_px;
@@ -2078,7 +2319,7 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   // (From 90° on the edge away from the light may be the terminator, a wide
   // ramp that would pass for blur: at −120°, taken for it, the lit limb came
   // out a pixel in.)
-  const bool alone = shadow_is_limb || std::fabs(options_.phase_angle_rad) < 0.5 * M_PI;
+  const bool alone = away_is_limb;
   double& sigma = placed.sigma;
   sigma = lens_sigma(alone);
   if (sigma >= kMaxBlurPx - kAtCapPx) {
@@ -2096,6 +2337,16 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
       glint_pad_ = WidePad(sigma);
     } else {
       pad_ = 0;
+    }
+  }
+  // The shading measured again beyond the lens blur's reach: a blurred
+  // step's tail inside the limb passes for it (at σ = 3 px it put the
+  // radius 0.3 px out), and the limb is placed again where it changed.
+  if (shaded) {
+    placed.unlit_shading = RollOff(away, away_points, 2.0 + 3.0 * sigma);
+    if (placed.unlit_shading.rolloff != away_rolloff) {
+      away_rolloff = placed.unlit_shading.rolloff;
+      away_points = RefineLimb(away, std::numeric_limits<double>::quiet_NaN());
     }
   }
   // From 90° on, a blur the limb in shadow alone proposes is not used (above),
@@ -2515,7 +2766,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   }
   if (std::isfinite(options.phase_angle_rad)) {
     return CheckAgainstPhase({luminance, region, mean_profile, background, noise, mean_rows, side,
-                              options},
+                              options, placed.unlit_shading.ExplainsSoftEdge()},
                              g, final_left, final_right, reseeded, trace);
   }
   if (trace != nullptr) {
