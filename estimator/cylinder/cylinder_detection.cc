@@ -1180,6 +1180,13 @@ ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
     e0[b] = y[b] - f0;
   }
   const double n = blocks;
+  // Each column's azimuth and grazing term, once for all onsets.
+  std::vector<double> column_phi(blocks * kBlock);
+  std::vector<double> column_grazing(blocks * kBlock);
+  for (int i = 0; i < blocks * kBlock; ++i) {
+    column_phi[i] = azimuth(lo + i);
+    column_grazing[i] = 1.0 / std::max(std::cos(column_phi[i]), 0.1);
+  }
   std::vector<double> v(blocks);
   for (int onset = lo + 2 * kBlock; onset <= lo + (blocks - 2) * kBlock; ++onset) {
     const double phi0 = azimuth(onset - 0.5);
@@ -1187,10 +1194,10 @@ ShadowOnset FindShadowOnset(const std::vector<double>& profile, int lo, int hi,
       std::fill(v.begin(), v.end(), 0.0);
       for (int b = 0; b < blocks; ++b) {
         for (int k = 0; k < kBlock; ++k) {
-          const double phi = azimuth(lo + b * kBlock + k);
+          const double phi = column_phi[b * kBlock + k];
           const double beyond = light_side * (phi - phi0);
           if (beyond <= 0.0) continue;
-          v[b] += (kind == 0 ? std::sin(beyond) : 1.0 / std::max(std::cos(phi), 0.1)) / kBlock;
+          v[b] += (kind == 0 ? std::sin(beyond) : column_grazing[b * kBlock + k]) / kBlock;
         }
       }
       double vv = 0.0;
@@ -1714,7 +1721,14 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
         luminance, edges, options.phase_angle_rad, options.projection, {background, noise});
     if (inferred.ok()) {
       const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
-      if ((!flat || soft_unlit || inferred_miss < 0.5 * miss) &&
+      // A soft unlit edge is the shading of a stray-lit limb as well as a
+      // terminator's ramp: it makes the terminator the answer only where
+      // the lobe does not stand nearer α/2 on the cylinder of both limbs
+      // (within kLobeAgreeRad the lobe's ends do not tell them apart).
+      constexpr double kLobeAgreeRad = 1.0 * M_PI / 180.0;
+      const bool soft_and_lobe_agrees =
+          soft_unlit && inferred_miss <= std::max(miss, kLobeAgreeRad);
+      if ((!flat || soft_and_lobe_agrees || inferred_miss < 0.5 * miss) &&
           inferred_miss <= options.min_lobe_offset_to_infer_rad) {
         const bool right_lit = options.phase_angle_rad > 0;
         SetRadiusStderr(final_left, right_lit ? kInferredLimbPx : kLimbSystematicPx,
@@ -1777,27 +1791,14 @@ struct LimbFit {
 };
 
 // The stray-light shading inside the limb away from the light
-// (LimbPlacer::RollOff): R, and how many bands' strips it explains better
-// than a terminator's ramp, of how many.
+// (LimbPlacer::RollOff): R, and the BIC by which the strip's rise is that
+// shading's rather than a terminator's ramp.
 struct Shading {
+  bool measured = false;  // in at least three bands
   double rolloff = 0.0;
-  int shading_votes = 0;
-  int bands = 0;
-  // More bands say the soft rise is the shading of a limb than chance
-  // would give: a sign test, P(at least that many of `bands` | ½ each) at
-  // most kChance, over at least kMinShadingBands.
-  bool ExplainsSoftEdge() const {
-    constexpr double kChance = 0.01;
-    constexpr int kMinShadingBands = 10;
-    if (bands < kMinShadingBands) return false;
-    double tail = 0.0;  // Σ_{k ≥ votes} C(bands, k) / 2^bands
-    double term = std::pow(0.5, bands);  // C(bands, 0) / 2^bands
-    for (int k = 0; k <= bands; ++k) {
-      if (k >= shading_votes) tail += term;
-      term *= static_cast<double>(bands - k) / (k + 1);
-    }
-    return tail <= kChance;
-  }
+  double delta_bic = 0.0;
+  // Decisive as FindShadowOnset's: above 10, odds beyond 150:1.
+  bool ExplainsSoftEdge() const { return delta_bic > 10.0; }
 };
 
 // The limbs placed in every band to a fraction of a pixel, with what their
@@ -2144,6 +2145,46 @@ double LimbPlacer::ThroughBlur(int inward, const std::vector<LimbPoint>& first, 
   return std::isfinite(move) ? move : 0.0;
 }
 
+// The BIC by which the bands' mean strip inside a limb (strip_sum[k] /
+// strip_count[k] at depth k px, over the depths all `bands` reach) is
+// B + R·cos φ rather than a terminator's B + k·d, in kBlock-column means.
+double ShadingOverRamp(const std::vector<double>& strip_sum, const std::vector<int>& strip_count,
+                       double radius, int bands) {
+  constexpr int kBlock = 5;
+  std::vector<double> c, d, v;  // block means
+  double block_c = 0.0, block_d = 0.0, block_v = 0.0;
+  int in_block = 0;
+  for (std::size_t k = 0; k < strip_sum.size(); ++k) {
+    if (strip_count[k] < bands) continue;
+    const double u = 1.0 - k / radius;
+    block_c += std::sqrt(std::max(0.0, 1.0 - u * u));
+    block_d += k;
+    block_v += strip_sum[k] / strip_count[k];
+    if (++in_block < kBlock) continue;
+    c.push_back(block_c / kBlock);
+    d.push_back(block_d / kBlock);
+    v.push_back(block_v / kBlock);
+    block_c = block_d = block_v = 0.0;
+    in_block = 0;
+  }
+  const int n = static_cast<int>(v.size());
+  if (n < 4) return 0.0;
+  // The residual sum of squares of v on a line in x.
+  auto rss = [&](const std::vector<double>& x) {
+    double sx = 0, sv = 0, sxx = 0, sxv = 0, svv = 0;
+    for (int i = 0; i < n; ++i) {
+      sx += x[i];
+      sv += v[i];
+      sxx += x[i] * x[i];
+      sxv += x[i] * v[i];
+      svv += v[i] * v[i];
+    }
+    const double vxx = sxx - sx * sx / n, vxv = sxv - sx * sv / n, vvv = svv - sv * sv / n;
+    return std::max(vxx > 0.0 ? vvv - vxv * vxv / vxx : vvv, 1e-300);
+  };
+  return n * std::log(rss(d) / rss(c));
+}
+
 // A body in stray light is shaded like any diffuse surface under a broad
 // source, a + R·cos φ (DESIGN.md §3: stray light reaches the whole body; a
 // source on the camera's side lights the middle fully and the limb at
@@ -2160,7 +2201,9 @@ double LimbPlacer::ThroughBlur(int inward, const std::vector<LimbPoint>& first, 
 // The same strip also tells a limb from a terminator taken for one: past
 // a terminator the direct light grows linearly with the depth, v = B + k·d
 // (the Lambertian term from zero); the shading's √d rises at once and
-// levels off. Each band votes for the model with the smaller residual.
+// levels off. Both are fitted to the bands' mean strip in kBlock-column
+// means (the weave's texture is correlated over a thread's few pixels), and
+// compared by BIC (the same number of parameters: n·ln(RSS_ramp/RSS_cos)).
 Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
                             double from_px) const {
   constexpr double kMinStripPx = 24.0;  // cos φ's curvature needs a few tens of px
@@ -2173,6 +2216,9 @@ Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
   if (2 * on_line < static_cast<long>(points.size())) return shading;
   const double alpha = std::fabs(options_.phase_angle_rad);
   std::vector<double> per_band;
+  std::vector<double> strip_sum;  // the bands' levels at depth k px, summed
+  std::vector<int> strip_count;
+  double strip_radius = 0.0;      // the least of the bands' radii
   for (std::size_t i = 0; i < bands_seen_.size() && i < points.size(); ++i) {
     if (!line.inlier[i]) continue;
     const BandEdges& band = bands_seen_[i];
@@ -2182,8 +2228,7 @@ Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
     if (!(depth - from_px >= kMinStripPx)) continue;
     const double e = line.at_center + line.slope * (band.row - center_row_) - region_.x;
     const int n_columns = static_cast<int>(band.profile.size());
-    // Sums for v on cos φ (c) and on the depth (d).
-    double sc = 0.0, sd = 0.0, sv = 0.0, scc = 0.0, sdd = 0.0, scv = 0.0, sdv = 0.0, svv = 0.0;
+    double sc = 0.0, sv = 0.0, scc = 0.0, scv = 0.0;  // v on cos φ (c)
     int n = 0;
     for (int k = static_cast<int>(std::ceil(from_px)); k <= static_cast<int>(depth); ++k) {
       const int x = static_cast<int>(std::lround(e + inward * k));
@@ -2193,25 +2238,28 @@ Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
       const double u = 1.0 - d / r;
       const double c = std::sqrt(std::max(0.0, 1.0 - u * u));
       const double v = band.profile[x];
+      if (strip_sum.size() <= static_cast<std::size_t>(k)) {
+        strip_sum.resize(k + 1, 0.0);
+        strip_count.resize(k + 1, 0);
+      }
+      strip_sum[k] += v;
+      ++strip_count[k];
       sc += c;
-      sd += d;
       sv += v;
       scc += c * c;
-      sdd += d * d;
       scv += c * v;
-      sdv += d * v;
-      svv += v * v;
       ++n;
     }
     if (n < kMinStripPx) continue;
-    const double vcc = scc - sc * sc / n, vdd = sdd - sd * sd / n;
-    const double vcv = scv - sc * sv / n, vdv = sdv - sd * sv / n, vvv = svv - sv * sv / n;
-    if (!(vcc > 0.0 && vdd > 0.0)) continue;
+    const double vcc = scc - sc * sc / n, vcv = scv - sc * sv / n;
+    if (!(vcc > 0.0)) continue;
     per_band.push_back(vcv / vcc);
-    if (vvv - vcv * vcv / vcc < vvv - vdv * vdv / vdd) ++shading.shading_votes;
+    strip_radius = per_band.size() == 1 ? r : std::min(strip_radius, r);
   }
-  shading.bands = static_cast<int>(per_band.size());
   if (per_band.size() < 3) return shading;
+  shading.measured = true;
+  shading.delta_bic = ShadingOverRamp(strip_sum, strip_count, strip_radius,
+                                      static_cast<int>(per_band.size()));
   double mean = 0.0;
   for (double v : per_band) mean += v;
   mean /= per_band.size();
@@ -2290,7 +2338,10 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   const int away = light_ > 0 ? +1 : -1;
   std::vector<LimbPoint>& away_points = away > 0 ? left_points : right_points;
   double& away_rolloff = rolloff_[away > 0 ? 0 : 1];
-  if (shaded) away_rolloff = RollOff(away, away_points, 2.0).rolloff;
+  if (shaded) {
+    placed.unlit_shading = RollOff(away, away_points, 2.0);
+    away_rolloff = placed.unlit_shading.rolloff;
+  }
   ForBothLimbs([&] { left_points = RefineLimb(+1, std::numeric_limits<double>::quiet_NaN()); },
                [&] { right_points = RefineLimb(-1, std::numeric_limits<double>::quiet_NaN()); });
   double& left_held_px = placed.left_held_px;
@@ -2339,14 +2390,18 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
       pad_ = 0;
     }
   }
-  // The shading measured again beyond the lens blur's reach: a blurred
-  // step's tail inside the limb passes for it (at σ = 3 px it put the
-  // radius 0.3 px out), and the limb is placed again where it changed.
+  // The shading measured again beyond the lens blur's reach, where the
+  // strip still holds enough of it: a blurred step's tail inside the limb
+  // passes for it (at σ = 3 px it put the radius 0.3 px out). The limb is
+  // placed again where it changed.
   if (shaded) {
-    placed.unlit_shading = RollOff(away, away_points, 2.0 + 3.0 * sigma);
-    if (placed.unlit_shading.rolloff != away_rolloff) {
-      away_rolloff = placed.unlit_shading.rolloff;
-      away_points = RefineLimb(away, std::numeric_limits<double>::quiet_NaN());
+    const Shading beyond_blur = RollOff(away, away_points, 2.0 + 3.0 * sigma);
+    if (beyond_blur.measured) {
+      placed.unlit_shading = beyond_blur;
+      if (beyond_blur.rolloff != away_rolloff) {
+        away_rolloff = beyond_blur.rolloff;
+        away_points = RefineLimb(away, std::numeric_limits<double>::quiet_NaN());
+      }
     }
   }
   // From 90° on, a blur the limb in shadow alone proposes is not used (above),

@@ -773,6 +773,44 @@ TEST(DetectionCasesTest, AStrayLitBodyRollingOffUnderAGradientKeepsItsLimbs) {
   EXPECT_NEAR(g->radius_px, rendered.truth.radius_px, 1.0);
 }
 
+// A limb 23 px from the frame's edge (the side strip beside it holds it),
+// with the body in strong stray light that rises slowly from it: its rise
+// is as soft as a terminator's ramp, and too few bands see both limbs to
+// tell the shading from a ramp. The lobe stands at α/2 on the cylinder of
+// both limbs (0.3° off) and 5.5° off with that edge taken for the
+// terminator: the limb stays (inferred, the radius came 41 px long).
+TEST(DetectionCasesTest, ASoftLimbWhoseLobeStandsAtHalfThePhaseAngleIsNoTerminator) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.model = ProfileModel::kSmooth;
+  scene.wavelength_mm = 4.2166;
+  scene.amplitude_mm = 0.6501;
+  scene.phase_angle_deg = 43.02;
+  scene.center_x_px = 299.8;
+  scene.radius_px = 276.8;
+  scene.source_blur_deg = 0.44;
+  scene.exposure = 0.0086;
+  scene.ambient = 0.0113;
+  scene.background = 0.0416;
+  scene.photons_full_scale = 10000.0;
+  scene.read_noise = 0.002;
+  scene.stray_light = 0.0643;
+  scene.stray_texture = 0.34;
+  scene.axial_glint_width = 0.271;
+  scene.axial_float_width = 0.26;
+  scene.background_gradient = 0.0112;
+  scene.background_gradient_deg = 30.0;
+  scene.black_level = 0.0254;
+  scene.seed = 104;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  EXPECT_NEAR(g->radius_px, rendered.truth.radius_px, 2.0);
+  EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, 1.5);
+}
+
 // --- What detection saw ----------------------------------------------------------
 
 TEST(DetectionTraceTest, ARefusalRecordsTheColumnsTheEdgesAndEachCylinderTried) {
