@@ -1349,7 +1349,7 @@ bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side
 struct SeenPhotograph {
   const Image& luminance;
   PixelRegion region;
-  const std::vector<double>& mean_profile;  // all rows' column means
+  const std::vector<double>& mean_profile;  // the cylinder's rows' column means
   double background = 0.0;
   double noise = 0.0;
   int mean_rows = 0;
@@ -2544,6 +2544,23 @@ SideStrips MeasureSideStrips(const Image& luminance, const PixelRegion& region,
   return strips;
 }
 
+// The column means over rows top..bottom (at most about 32·24 of them, evenly
+// spread, as the bands read), and how many rows they hold.
+std::vector<double> ColumnMeans(const Image& luminance, const PixelRegion& region, int top,
+                                int bottom, int* rows) {
+  constexpr int kRows = 32 * 24;
+  const int stride = std::max(1, (bottom - top + kRows) / kRows);
+  std::vector<double> sums(region.width, 0.0);
+  *rows = 0;
+  for (int y = top; y <= bottom; y += stride, ++*rows) {
+    const float* row = &luminance.pixels[static_cast<std::size_t>(y) * luminance.width + region.x];
+    cv::accumulate(cv::Mat(1, region.width, CV_32F, const_cast<float*>(row)),
+                   cv::Mat(1, region.width, CV_64F, sums.data()));
+  }
+  for (double& v : sums) v /= std::max(*rows, 1);
+  return sums;
+}
+
 // Each band of rows' column means and first limb estimates (FindBandLimbs),
 // and the column means of all the bands' rows.
 struct BandScan {
@@ -2842,7 +2859,15 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     SetFromLines(l, r, placed, &g);
   }
   if (std::isfinite(options.phase_angle_rad)) {
-    return CheckAgainstPhase({luminance, region, mean_profile, background, noise, mean_rows, side,
+    // The phase checks read the cylinder's rows alone: a mount or an end in
+    // the others puts its own steps into the column means (a mount 0.8
+    // radii wide, across the shadow, read as direct light there).
+    int rows_on = mean_rows;
+    const std::vector<double> on_cylinder =
+        g.top_row > region.y || g.bottom_row < region.y + region.height - 1
+            ? ColumnMeans(luminance, region, g.top_row, g.bottom_row, &rows_on)
+            : mean_profile;
+    return CheckAgainstPhase({luminance, region, on_cylinder, background, noise, rows_on, side,
                               options, placed.unlit_shading.ExplainsSoftEdge()},
                              g, final_left, final_right, reseeded, trace);
   }

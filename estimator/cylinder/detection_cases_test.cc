@@ -811,6 +811,41 @@ TEST(DetectionCasesTest, ASoftLimbWhoseLobeStandsAtHalfThePhaseAngleIsNoTerminat
   EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, 1.5);
 }
 
+// A mount 0.69 radii wide above and below the cylinder, brighter than the
+// body in shadow: over all rows its edges put steps into the shadow's
+// column means, which read as direct light there (refused). The phase
+// checks read the cylinder's own rows.
+TEST(DetectionCasesTest, AMountAcrossTheShadowIsNotDirectLight) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 800;
+  scene.height_px = 600;
+  scene.model = ProfileModel::kSmooth;
+  scene.wavelength_mm = 4.3916;
+  scene.amplitude_mm = 0.6131;
+  scene.phase_angle_deg = 85.38;
+  scene.center_x_px = 411.9;
+  scene.radius_px = 318.3;
+  scene.top_row_px = 70;
+  scene.bottom_row_px = 501;
+  scene.source_blur_deg = 1.47;
+  scene.exposure = 0.009;
+  scene.ambient = 0.006;
+  scene.background = 0.0285;
+  scene.mount_level = 0.064;
+  scene.mount_half_width = 0.69;
+  scene.photons_full_scale = 10000.0;
+  scene.read_noise = 0.002;
+  scene.stray_light = 0.0635;
+  scene.stray_texture = 0.62;
+  scene.seed = 72;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  EXPECT_NEAR(g->radius_px, rendered.truth.radius_px, 1.0);
+  EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, 1.0);
+}
+
 // --- What detection saw ----------------------------------------------------------
 
 TEST(DetectionTraceTest, ARefusalRecordsTheColumnsTheEdgesAndEachCylinderTried) {
