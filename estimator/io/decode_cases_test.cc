@@ -445,6 +445,35 @@ TEST(DecodeCasesTest, HugeExrDataWindowIsRefused) {
   ExpectRefusedFromHeader(bytes, "exr", 100000, 100000);
 }
 
+// A header whose last attribute runs past the end of the data, after the
+// data window (as the input fuzz_decode_minute was reading when ASan found
+// the heap corrupt inside OpenEXR 3.1), and one whose fixed-size attribute
+// claims another size: refused by weavefit's own walk of the attribute
+// list, before OpenEXR reads it.
+TEST(DecodeCasesTest, AnExrAttributePastTheEndIsRefusedBeforeOpenExr) {
+  std::string bytes = ExrHeader({"Y"}, ExrSample::kHalf, 0, 0, 3, 3);
+  bytes.pop_back();  // the header's end marker
+  bytes += std::string("custom\0opaque\0", 14);
+  PutLe(bytes, 4096, 4);
+  bytes += "only a few bytes";
+  absl::StatusOr<Image> image = DecodeImage(bytes, DecodeOptions());
+  ASSERT_FALSE(image.ok());
+  EXPECT_EQ(image.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(image.status().message().find("attribute value truncated"), std::string::npos)
+      << image.status();
+}
+
+TEST(DecodeCasesTest, AnExrFixedSizeAttributeOfAnotherSizeIsRefused) {
+  std::string bytes = ExrHeader({"Y"}, ExrSample::kHalf, 0, 0, 3, 3);
+  bytes.pop_back();
+  PutAttribute(bytes, "owner", "v2f", std::string(5, '\0'));
+  bytes.push_back('\0');
+  absl::StatusOr<Image> image = DecodeImage(bytes, DecodeOptions());
+  ASSERT_FALSE(image.ok());
+  EXPECT_NE(image.status().message().find("has size 5, not 8"), std::string::npos)
+      << image.status();
+}
+
 // The same header with nothing after it, as a truncated upload would be. A
 // PNG header over garbage is refused for its size (decode_test.cc,
 // HugeHeaderIsRejectedBeforeDecoding); an EXR header should be too.
