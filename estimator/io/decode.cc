@@ -214,8 +214,10 @@ absl::StatusOr<ImageHeader> ReadExrHeader(const std::string& bytes) {
     }
     const int fixed = ExrFixedSize(*type);
     if (fixed > 0 && size != fixed) {
-      return Malformed("EXR", absl::StrCat("attribute ", *name, " of type ", *type, " has size ",
-                                           size, ", not ", fixed));
+      // (The type is one of the known names; the attribute's own name may
+      // be any bytes, and stays out of the message.)
+      return Malformed("EXR", absl::StrCat("an attribute of type ", *type, " has size ", size,
+                                           ", not ", fixed));
     }
     if (*name == "dataWindow" && *type == "box2i" && size == 16) {
       const std::int64_t width = std::int64_t{read_int(at + 8)} - read_int(at) + 1;
