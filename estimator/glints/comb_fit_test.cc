@@ -217,14 +217,12 @@ TEST(CombFitTest, APolishThatFindsABetterOptimumIsKept) {
 }
 
 // A comb at 110° whose profile starts the max slope 14 % short (0.216 for
-// 0.250, seed 5006 of the sin_m025_p110 fixture's scene). Through the
-// cylinder detection found when this case was recorded, the fit settled in
-// a false optimum with the period 1 % short and a second start from that
-// answer found 3.002 mm. The comb fit's path here turns on thousandths of a
-// pixel and a degree of the cylinder (through today's detection, 0.002 px
-// and 0.001° away, its first fit stops at its iteration cap and the
-// estimate falls back to peak picking; the glint stage's own fragility), so
-// the cylinder is given: the truth, with detection's stated error.
+// 0.250): from there the fit may settle in a false optimum with the period
+// 1 % short, which a second start from its answer leaves. Which path the
+// fit takes turns on thousandths of a pixel and a degree of the cylinder
+// (0.002 px and 0.001° decided between a converged fit and one stopped at
+// its iteration cap), so the cylinder is given: the truth, with the error
+// detection states on such a scene.
 TEST(CombFitTest, AComb110DegreesFromTheLightFindsItsPeriod) {
   RenderScene scene;
   scene.width_px = 320;
