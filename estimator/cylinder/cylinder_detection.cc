@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Dense>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -1091,6 +1092,200 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   moved.left_bands.at_center += region.x;
   moved.right_bands.at_center += region.x;
   return moved;
+}
+
+// A limb's profile over a wide window, the bands' profiles aligned on one
+// line and averaged (the model is linear in its levels, so the mean of the
+// bands' models is the model of their mean): outside the limb the
+// background on a line in the column (a gradient, vignetting); inside it a
+// body lit by what DESIGN.md §3 lists, each term a known function of the
+// depth d inside the limb: a level B (ambient, the weave's own), stray
+// light's shading R·cos φ, a Lambertian direct term, which near a limb is
+// a + b·cos φ + c·(1 − d/r) and so adds only L·d, and the grazing scatter
+// S/cos φ. The body may stand above, below or at the background's level:
+// under stray light alone it meets the limb at its ambient level and rises
+// as √d, over tens of pixels, where a step search fires deep inside.
+struct WideProfile {
+  std::vector<double> v;  // pixel j = 0 .. size−1 at offset j − out inward
+  std::vector<bool> use;  // not a glint (a spike over its neighbours) or clipped
+  int out = 0;            // pixels outside the line's column
+  // The body's terms over the pixel at depths d .. d + 1 inside a limb:
+  // 1, cos φ, d + ½ and the grazing scatter, for d = 0 .. size − 1.
+  std::vector<Eigen::Vector4d> terms;
+};
+
+// How well the wide model explains the window with the limb before pixel
+// j = out + delta (delta > 0: inward of the line): −2 ln L of its
+// residuals, Gaussian with each side its own variance (the body's texture
+// is the background's noise and more), n·ln(RSS/n) per side, up to a
+// constant. Every split has the same parameters, so a difference of two is
+// a difference of BIC.
+double WideCost(const WideProfile& w, int delta) {
+  const int split = w.out + delta;
+  const int n = static_cast<int>(w.v.size());
+  double s1 = 0, st = 0, stt = 0, sv = 0, stv = 0, svv = 0;
+  for (int j = 0; j < split; ++j) {
+    if (!w.use[j]) continue;
+    const double t = j - split;
+    s1 += 1;
+    st += t;
+    stt += t * t;
+    sv += w.v[j];
+    stv += t * w.v[j];
+    svv += w.v[j] * w.v[j];
+  }
+  const double vtt = stt - st * st / s1, vtv = stv - st * sv / s1, vvv = svv - sv * sv / s1;
+  const double sse_out = vtt > 0.0 ? vvv - vtv * vtv / vtt : vvv;
+  Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d b = Eigen::Vector4d::Zero();
+  double vv = 0.0;
+  int inside = 0;
+  for (int j = split; j < n; ++j) {
+    if (!w.use[j]) continue;
+    const Eigen::Vector4d& f = w.terms[j - split];
+    a += f * f.transpose();
+    b += f * w.v[j];
+    vv += w.v[j] * w.v[j];
+    ++inside;
+  }
+  if (s1 < 3 || inside < 8) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector4d beta = a.ldlt().solve(b);
+  const double sse_in = std::max(vv - b.dot(beta), 1e-300);
+  return s1 * std::log(std::max(sse_out, 1e-300) / s1) + inside * std::log(sse_in / inside);
+}
+
+// Where the wide model places a limb (inward +1: the left) against the
+// bands' first estimates: the move inward of their line, px, when it is
+// at least kMinMovePx and the model explains the window decisively better
+// there than at the line (by BIC); 0 otherwise, and wherever the window
+// cannot hold the model: the edge away from the light from 90° on (it may
+// be a terminator), a strip inside the limb too short for cos φ's curve
+// before the terminator or the lobe.
+double WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
+                    const std::vector<bool>& on_cylinder, int inward, double center_row,
+                    int side, double phase_angle_rad) {
+  constexpr int kSearchOutPx = 96;  // how far outside the line a limb is sought
+  constexpr int kSearchInPx = 8;
+  constexpr int kBackgroundPx = 16;  // the least background seen outside it
+  constexpr int kMinBodyPx = 24;     // cos φ's curvature needs a few tens of px
+  constexpr double kMinMovePx = 3.0;  // as ReseedFaintLimbs: the texture bends lines by ~2 px
+  if (!std::isfinite(phase_angle_rad) || bands.size() < 3) return 0.0;
+  const double alpha = std::fabs(phase_angle_rad);
+  const bool toward_light = (inward > 0) == (phase_angle_rad < 0);
+  if (!toward_light && alpha >= 0.5 * M_PI) return 0.0;
+  std::vector<double> radii;
+  for (const BandEdges& b : bands) radii.push_back(b.radius);
+  const double r = Median(radii);
+  // The body's depth the window may reach: a third of the radius, short of
+  // the terminator (by a fifth, as RollOff) or, at the lit limb, of the
+  // lobe at α/2 (by two fifths: its caustics spread about it).
+  double depth = r / 3.0;
+  if (!toward_light) depth = std::min(depth, 0.8 * r * (1.0 - std::cos(alpha)));
+  if (toward_light) depth = std::min(depth, 0.6 * r * (1.0 - std::sin(0.5 * alpha)));
+  const int in = static_cast<int>(depth);
+  if (in < kSearchInPx + kMinBodyPx) return 0.0;
+  const int width = static_cast<int>(bands.front().profile.size());
+  // The window outside reaches to the side strip.
+  double least_room = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < bands.size(); ++i) {
+    if (!on_cylinder[i]) continue;
+    const double p = line.at_center + line.slope * (bands[i].row - center_row);
+    least_room = std::min(least_room, inward > 0 ? p - side : width - 1 - side - p);
+  }
+  const int out = std::min(kSearchOutPx + kBackgroundPx, static_cast<int>(least_room));
+  if (out < kBackgroundPx + static_cast<int>(kMinMovePx) + 1) return 0.0;
+  WideProfile w;
+  w.out = out;
+  for (int d = 0; d < out + in; ++d) {
+    w.terms.emplace_back(1.0, CosFromLimb(r, d + 1) - CosFromLimb(r, d), d + 0.5,
+                         GrazingFromLimb(r, d + 1) - GrazingFromLimb(r, d));
+  }
+  w.v.assign(out + in, 0.0);
+  std::vector<int> count(out + in, 0);
+  for (std::size_t i = 0; i < bands.size(); ++i) {
+    if (!on_cylinder[i]) continue;
+    const BandEdges& band = bands[i];
+    const long x0 = std::lround(line.at_center + line.slope * (band.row - center_row));
+    for (int j = 0; j < out + in; ++j) {
+      const long x = x0 + inward * (j - out);
+      if (x < 0 || x >= width) continue;
+      if (!band.clipped.empty() && band.clipped[x] != 0) continue;
+      w.v[j] += band.profile[x];
+      ++count[j];
+    }
+  }
+  const auto bands_on = std::count(on_cylinder.begin(), on_cylinder.end(), true);
+  w.use.assign(out + in, false);
+  for (int j = 0; j < out + in; ++j) {
+    if (2 * count[j] < bands_on) continue;
+    w.v[j] /= count[j];
+    w.use[j] = true;
+  }
+  // A glint: a pixel above the median of the 11 about it by more than 4
+  // times their spread (MAD): the model has no term for it.
+  constexpr int kHalf = 5;
+  std::vector<bool> glint(out + in, false);
+  for (int j = 0; j < out + in; ++j) {
+    std::vector<double> near;
+    for (int k = std::max(0, j - kHalf); k <= std::min(out + in - 1, j + kHalf); ++k) {
+      if (w.use[k]) near.push_back(w.v[k]);
+    }
+    if (near.size() < 5 || !w.use[j]) continue;
+    const double med = Median(near);
+    for (double& x : near) x = std::fabs(x - med);
+    glint[j] = w.v[j] - med > 4.0 * 1.4826 * Median(near);
+  }
+  for (int j = 0; j < out + in; ++j) w.use[j] = w.use[j] && !glint[j];
+  const int from = -(out - kBackgroundPx);
+  double best_cost = std::numeric_limits<double>::infinity();
+  int best = 0;
+  for (int delta = from; delta <= kSearchInPx; ++delta) {
+    const double cost = WideCost(w, delta);
+    if (cost < best_cost) {
+      best_cost = cost;
+      best = delta;
+    }
+  }
+  // Decisive as FindShadowOnset's: above 10, odds beyond 150:1.
+  const double delta_bic = WideCost(w, 0) - best_cost;
+  if (std::abs(best) < kMinMovePx || !(delta_bic > 10.0)) return 0.0;
+  // The limb lies between pixels best − 1 and best: half a pixel before
+  // the latter's centre.
+  return best - 0.5;
+}
+
+// Each limb's first estimates moved where the wide model places it
+// (WideLimbMove), all onto its line.
+void PlaceLimbsWide(double center_row, int side, double phase_angle_rad,
+                    std::vector<BandEdges>* bands) {
+  std::vector<LimbPoint> left_first;
+  std::vector<LimbPoint> right_first;
+  for (const BandEdges& b : *bands) {
+    left_first.push_back({b.row, b.left_cross});
+    right_first.push_back({b.row, b.right_cross});
+  }
+  if (bands->size() < 3) return;
+  const Line left = FitLimbLine(left_first, center_row);
+  const Line right = FitLimbLine(right_first, center_row);
+  // The cylinder's rows: the bands on both lines (a mount's or an end's
+  // edges stand off them, and a mount's step outweighs a faint limb's).
+  std::vector<bool> on_both(bands->size());
+  for (std::size_t i = 0; i < bands->size(); ++i) on_both[i] = left.inlier[i] && right.inlier[i];
+  if (std::count(on_both.begin(), on_both.end(), true) < 3) return;
+  const double left_move =
+      WideLimbMove(*bands, left, on_both, +1, center_row, side, phase_angle_rad);
+  const double right_move =
+      WideLimbMove(*bands, right, on_both, -1, center_row, side, phase_angle_rad);
+  for (BandEdges& b : *bands) {
+    if (left_move != 0.0) {
+      b.left_cross = std::round(left.at_center + left.slope * (b.row - center_row)) + left_move;
+    }
+    if (right_move != 0.0) {
+      b.right_cross =
+          std::round(right.at_center + right.slope * (b.row - center_row)) - right_move;
+    }
+    b.radius = 0.5 * (b.right_cross - b.left_cross);
+  }
 }
 
 // The first and last columns of [from, to] more than half-way from the
@@ -2763,6 +2958,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     trace->all_rows_left_x = reseeded.all_left;
     trace->all_rows_right_x = reseeded.all_right;
   }
+  PlaceLimbsWide(center_row, side, options.phase_angle_rad, &bands_seen);
   LimbPlacer placer(bands_seen, region, center_row, options);
   PlacedLimbs placed = placer.Place(shadow_is_limb);
   std::vector<LimbPoint>& left_points = placed.left_points;

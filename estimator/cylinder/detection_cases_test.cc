@@ -811,6 +811,49 @@ TEST(DetectionCasesTest, ASoftLimbWhoseLobeStandsAtHalfThePhaseAngleIsNoTerminat
   EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, 1.5);
 }
 
+// The lit limb of a body in stray light alone (no diffuse term) at 59°: the
+// shading R·cos φ meets the limb at the ambient level, darker than the
+// backdrop there, and crosses the backdrop's level some 25 px inside, where
+// a search for the first step from the background fires. Below and above
+// the cylinder a mount wider than it puts its own edges 12 px outside the
+// limbs. The wide window's model of background, shading and direct light
+// places the limb. (The first step taken for it: a radius 30 px short.)
+TEST(DetectionCasesTest, AStrayLitBodyDarkerThanTheBackdropAtItsLitLimbKeepsThatLimb) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 512;
+  scene.height_px = 384;
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 2.8549;
+  scene.amplitude_mm = 0.06362;
+  scene.phase_angle_deg = -59.26;
+  scene.center_x_px = 241.0;
+  scene.radius_px = 144.0;
+  scene.top_row_px = 27;
+  scene.bottom_row_px = 322;
+  scene.source_blur_deg = 0.41;
+  scene.exposure = 0.0088;
+  scene.ambient = 0.0179;
+  scene.background = 0.0425;
+  scene.mount_level = 0.074;
+  scene.mount_half_width = 1.08;
+  scene.stray_light = 0.0452;
+  scene.stray_texture = 0.68;
+  scene.axial_glint_width = 0.235;
+  scene.background_gradient = 0.0224;
+  scene.background_gradient_deg = 63.0;
+  scene.photons_full_scale = 50000.0;
+  scene.read_noise = 0.002;
+  scene.seed = 3;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  const Limbs truth = TrueLimbs(rendered.truth);
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  EXPECT_NEAR(found.left, truth.left, 1.0);
+  EXPECT_NEAR(found.right, truth.right, 1.0);
+}
+
 // A mount 0.69 radii wide above and below the cylinder, brighter than the
 // body in shadow: over all rows its edges put steps into the shadow's
 // column means, which read as direct light there (refused). The phase
