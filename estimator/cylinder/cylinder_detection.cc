@@ -949,14 +949,59 @@ std::vector<int> SpreadRows(const std::vector<BandEdges>& bands, int max_rows,
 // The share of the columns between the limbs that must show the body.
 constexpr double kBodyShare = 0.7;
 
+// One pixel's noise in each side strip over the given rows, from
+// differences of pixels kRowApart rows apart. The strips' spread about
+// their median, the detector's noise elsewhere, takes in whatever the
+// strips hold besides background (a limb, a mount's edge) and a backdrop's
+// gradient across them: at three times the pixel noise it hid a limb 38 px
+// from the frame's edge, and a body darker than one strip and brighter
+// than the other. Rows kRowApart apart lie in different blocks of a JPEG,
+// whose pixels within a block share their error.
+struct StripNoise {
+  double left = 0.0;
+  double right = 0.0;
+};
+StripNoise StripRowNoise(const Image& luminance, const PixelRegion& region, int side,
+                         const std::vector<int>& rows) {
+  constexpr int kRowApart = 8;
+  std::vector<double> left_steps;
+  std::vector<double> right_steps;
+  const int last_row = region.y + region.height - 1;
+  for (int y : rows) {
+    if (y + kRowApart > last_row) continue;
+    for (int i = 0; i < side; ++i) {
+      const int xl = region.x + i;
+      const int xr = region.x + region.width - 1 - i;
+      left_steps.push_back(std::fabs(luminance.At(xl, y + kRowApart) - luminance.At(xl, y)));
+      right_steps.push_back(std::fabs(luminance.At(xr, y + kRowApart) - luminance.At(xr, y)));
+    }
+  }
+  // A difference of two pixels holds √2 of one's noise.
+  auto one_pixel = [](std::vector<double>& steps) {
+    return steps.empty() ? 1e-6 : std::max(1.4826 * Median(steps) / std::sqrt(2.0), 1e-6);
+  };
+  return {one_pixel(left_steps), one_pixel(right_steps)};
+}
+
+// The side strips' width and each one's background level.
+struct SideLevels {
+  int side = 0;
+  double left = 0.0;
+  double right = 0.0;
+};
+
 // How many columns between two edges show a body: a mean over all rows
 // that stands apart from the background, or pixels that vary down the
-// column (over the bands' rows) beyond the background's noise. A body in
-// stray light as bright as the background still shows the weave's texture
-// down every column (the threads cross it at their own period); the
-// background between isolated glints shows noise alone. Over n rows a
-// standard deviation is known to 1/√(2n) of itself: kTextureSigmas of that
-// above the noise.
+// column (over the bands' rows) beyond the background's noise. The
+// background there is on the line between the side strips' levels (a
+// backdrop's gradient across the frame), with their own noise
+// (StripRowNoise): a body darker than one strip and brighter than the
+// other, judged against one level for both and its inflated noise, showed
+// in a tenth of its columns. A body in stray light as bright as the
+// background still shows the weave's texture down every column (the
+// threads cross it at their own period); the background between isolated
+// glints shows noise alone. Over n rows a standard deviation is known to
+// 1/√(2n) of itself: kTextureSigmas of that above the noise.
 // Or, where the body is as bright and as smooth as the background over
 // much of its width (a smooth sample in stray light), both edges must step
 // into a body: the mean over all rows 3-10 px inside each differs from the
@@ -968,26 +1013,36 @@ struct BodyCoverage {
   bool limbs_step_into_body = false;
 };
 BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
-                       const std::vector<double>& mean_profile, double background, double noise,
+                       const std::vector<double>& mean_profile, const SideLevels& strips,
                        int mean_rows, double edge_sigmas, const std::vector<BandEdges>& bands,
                        double left_column, double right_column) {
   constexpr double kTextureSigmas = 6.0;
   const std::vector<int> rows = SpreadRows(bands, 256);
-  const double mean_threshold =
-      edge_sigmas * noise / std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
+  const StripNoise strip_noise = StripRowNoise(luminance, region, strips.side, rows);
+  // The background and its noise at column x: on the line between the
+  // strips' middles (a backdrop's gradient across the frame).
+  const double left_x = region.x + 0.5 * (strips.side - 1);
+  const double right_x = region.x + region.width - 1 - 0.5 * (strips.side - 1);
+  auto along = [&](double x, double at_left, double at_right) {
+    const double t = std::clamp((x - left_x) / std::max(right_x - left_x, 1.0), 0.0, 1.0);
+    return at_left + t * (at_right - at_left);
+  };
+  auto mean_threshold = [&](double x) {
+    return edge_sigmas * along(x, strip_noise.left, strip_noise.right) /
+           std::sqrt(static_cast<double>(std::max(mean_rows, 1)));
+  };
   const double n = static_cast<double>(rows.size());
-  const double texture_threshold =
-      n >= 8 ? noise * (1.0 + kTextureSigmas / std::sqrt(2.0 * n))
-             : std::numeric_limits<double>::infinity();
   BodyCoverage c;
   for (int x = static_cast<int>(std::ceil(left_column)) + 2;
        x <= static_cast<int>(std::floor(right_column)) - 2; ++x) {
     if (x < region.x || x >= region.x + region.width) continue;
     ++c.total;
-    if (std::fabs(mean_profile[x - region.x] - background) > mean_threshold) {
+    if (std::fabs(mean_profile[x - region.x] - along(x, strips.left, strips.right)) >
+        mean_threshold(x)) {
       ++c.on;
       continue;
     }
+    if (n < 8) continue;
     double sum = 0.0;
     double sum_sq = 0.0;
     for (int y : rows) {
@@ -995,9 +1050,10 @@ BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
       sum += v;
       sum_sq += v * v;
     }
-    const double mean = sum / std::max(n, 1.0);
-    const double sd = std::sqrt(std::max(0.0, sum_sq / std::max(n, 1.0) - mean * mean));
-    c.on += sd > texture_threshold;
+    const double mean = sum / n;
+    const double sd = std::sqrt(std::max(0.0, sum_sq / n - mean * mean));
+    c.on += sd > along(x, strip_noise.left, strip_noise.right) *
+                     (1.0 + kTextureSigmas / std::sqrt(2.0 * n));
   }
   auto steps_in = [&](double edge, int inward) {
     double inside = 0.0;
@@ -1010,7 +1066,7 @@ BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
       outside += mean_profile[out] / 8.0;
     }
     // Each an 8-column mean: its noise is the column's over √8.
-    return std::fabs(inside - outside) > mean_threshold;
+    return std::fabs(inside - outside) > mean_threshold(edge);
   };
   c.limbs_step_into_body = steps_in(left_column, +1) && steps_in(right_column, -1);
   return c;
@@ -1511,13 +1567,13 @@ constexpr char kTooFewLimbs[] = "no cylinder found: only ";
 
 // Whether a side strip holds a step over the given rows: the mean of each
 // strip column over them, and a difference of three columns' means beside
-// three others beyond kStripStepSigmas of its noise. A limb there (a
-// cylinder that fills the frame) makes the body beyond it the strip's
-// level, and the body then departs from it only at its terminator. (Over
-// the bands' rows only: a mount's edges may stand in the strips beside the
-// cylinder's ends.)
+// three others beyond kStripStepSigmas of its noise (StripRowNoise). A limb
+// there (a cylinder that fills the frame) makes the body beyond it the
+// strip's level, and the body then departs from it only at its terminator.
+// (Over the bands' rows only: a mount's edges may stand in the strips
+// beside the cylinder's ends.)
 bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side,
-                     const std::vector<int>& rows, double noise) {
+                     const std::vector<int>& rows) {
   constexpr double kStripStepSigmas = 8.0;
   if (side < 8 || rows.empty()) return false;
   std::vector<double> left(side, 0.0);
@@ -1528,10 +1584,12 @@ bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side
       right[i] += luminance.At(region.x + region.width - 1 - i, y);
     }
   }
+  const StripNoise noise = StripRowNoise(luminance, region, side, rows);
   const double n = static_cast<double>(rows.size());
-  const double threshold = kStripStepSigmas * noise * std::sqrt(2.0 / (3.0 * n));
-  for (const std::vector<double>* strip : {&left, &right}) {
-    const std::vector<double>& p = *strip;
+  for (int s = 0; s < 2; ++s) {
+    const std::vector<double>& p = s == 0 ? left : right;
+    const double threshold =
+        kStripStepSigmas * (s == 0 ? noise.left : noise.right) * std::sqrt(2.0 / (3.0 * n));
     for (int x = 3; x + 3 < side; ++x) {
       const double d = (p[x + 1] + p[x + 2] + p[x + 3] - p[x - 1] - p[x - 2] - p[x - 3]) / (3.0 * n);
       if (std::fabs(d) > threshold) return true;
@@ -1826,6 +1884,29 @@ double EdgeRisePx(const SeenPhotograph& seen, const CylinderGeometry& c, int sid
   return crossing(0.8) - crossing(0.2);
 }
 
+// A cylinder whose inferred limb (the one away from the light) lies in
+// the region at the cylinder's first and last rows; an error otherwise.
+// The detector reads the side strips as background: beyond the frame's
+// edge, the limb would leave the body in shadow in the strip, read as
+// background, and nothing in the photograph places it (a limb inferred
+// 1,300 px outside an 800 px frame made a lobe at one caustic "fit").
+absl::StatusOr<CylinderGeometry> InferredLimbInFrame(const CylinderGeometry& c,
+                                                     const PixelRegion& region,
+                                                     double phase_angle_rad) {
+  const double toward_unlit = phase_angle_rad > 0 ? -1.0 : 1.0;
+  const double half = c.radius_px / std::cos(c.axis_angle_rad);
+  for (const int row : {c.top_row, c.bottom_row}) {
+    const double limb = c.AxisColumn(row) + toward_unlit * half;
+    if (limb < region.x || limb > region.x + region.width - 1) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "the limb inferred from the terminator would lie outside the frame (column %.0f "
+          "at row %d)",
+          limb, row));
+    }
+  }
+  return c;
+}
+
 // With the phase angle known, the lobe must stand near the mirror azimuth
 // α/2. When it does not, the edge on the side away from the light may be
 // the terminator, the limb beyond it lost in darkness: infer that limb
@@ -1935,6 +2016,7 @@ absl::StatusOr<CylinderGeometry> CheckAgainstPhase(const SeenPhotograph& seen,
     edges.radius_px = 0.5 * std::fabs(lit.at_center - other.at_center) * std::cos(edges.axis_angle_rad);
     absl::StatusOr<CylinderGeometry> inferred = InferDarkLimb(
         luminance, edges, options.phase_angle_rad, options.projection, {background, noise});
+    if (inferred.ok()) inferred = InferredLimbInFrame(*inferred, region, options.phase_angle_rad);
     if (inferred.ok()) {
       const double inferred_miss = std::fabs(lobe_azimuth(*inferred) - half_alpha);
       // A soft unlit edge is the shading of a stray-lit limb as well as a
@@ -2947,7 +3029,7 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
       trace->band_edges.push_back({b.row, region.x + b.left_cross, region.x + b.right_cross});
     }
   }
-  if (StripHoldsAStep(luminance, region, side, SpreadRows(bands_seen, 512), noise)) {
+  if (StripHoldsAStep(luminance, region, side, SpreadRows(bands_seen, 512))) {
     return absl::InvalidArgumentError(absl::StrCat(
         kTooFewLimbs, "part of the side strips (", side,
         " px) is plain background: a limb lies in one"));
@@ -3007,7 +3089,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // The surface between the two edges must be continuous: edges found on
   // isolated glints (a body as dark as the background, no lit terminator)
   // would place a cylinder that is not there.
-  if (const BodyCoverage body = CoverBody(luminance, region, mean_profile, background, noise,
+  if (const BodyCoverage body = CoverBody(luminance, region, mean_profile,
+                                          {side, strips.left_background, strips.right_background},
                                           mean_rows, options.edge_sigmas, bands_seen,
                                           left.at_center, right.at_center);
       body.total == 0 || (body.on < kBodyShare * body.total && !body.limbs_step_into_body)) {

@@ -854,6 +854,107 @@ TEST(DetectionCasesTest, AStrayLitBodyDarkerThanTheBackdropAtItsLitLimbKeepsThat
   EXPECT_NEAR(found.right, truth.right, 1.0);
 }
 
+// At 96° a body in stray light alone meets its lit limb at the ambient
+// level, under a backdrop that a gradient across the frame takes from
+// brighter than the body at one side to darker at the other. The wide
+// window's model finds that limb 24 px out of where the first step from
+// the background fired; the body between the limbs is then judged against
+// the backdrop's line between the strips and each strip's own noise (their
+// spread about one level, which the gradient inflates, found only a tenth
+// of the columns apart from it and refused). The first step taken for the
+// limb: a radius 12 px short.
+TEST(DetectionCasesTest, ABodyAtTheBackdropsLevelUnderAGradientKeepsItsLitLimb) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 3.0019;
+  scene.amplitude_mm = 0.1914;
+  scene.phase_angle_deg = 96.21;
+  scene.center_x_px = 302.9;
+  scene.radius_px = 257.5;
+  scene.top_row_px = 37;
+  scene.bottom_row_px = 436;
+  scene.source_blur_deg = 0.89;
+  scene.exposure = 0.0042;
+  scene.ambient = 0.0192;
+  scene.background = 0.0394;
+  scene.mount_level = 0.035;
+  scene.mount_half_width = 0.81;
+  scene.vignetting = 0.16;
+  scene.photons_full_scale = 3000.0;
+  scene.stray_light = 0.0233;
+  scene.stray_texture = 0.75;
+  scene.axial_glint_width = 0.281;
+  scene.background_gradient = 0.0233;
+  scene.background_gradient_deg = 190.0;
+  scene.seed = 2;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  const Limbs truth = TrueLimbs(rendered.truth);
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  EXPECT_NEAR(found.left, truth.left, 1.0);
+  EXPECT_NEAR(found.right, truth.right, 1.0);
+}
+
+// A glossy body as dark and as smooth as the backdrop shows only its
+// glints: edges found on the outermost glints would place a cylinder that
+// is not there, and the photograph is refused.
+TEST(DetectionCasesTest, ABodyShowingOnlyItsGlintsIsRefused) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.center_x_px = 319.5;
+  scene.radius_px = 256.0;
+  scene.model = ProfileModel::kSawtooth;
+  scene.phase_angle_deg = 30.0;
+  scene.diffuse = 0.0;
+  scene.ambient = 0.01;
+  scene.background = 0.01;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_FALSE(g.ok()) << "radius " << g->radius_px;
+  EXPECT_NE(std::string(g.status().message()).find("differ from the background"), std::string::npos)
+      << g.status();
+}
+
+// At 110° a body in stray light alone rises slowly from its unlit limb,
+// and one caustic of a sawtooth's split lobe stands far from α/2: the
+// unlit edge reads as a terminator, and the limb inferred beyond it came
+// out 1,300 px outside the 800 px frame, where a lobe at that caustic
+// "fit". A limb is never inferred outside the frame: the side strip there
+// would be body in shadow, read as background, and nothing places it.
+TEST(DetectionCasesTest, NoLimbIsInferredOutsideTheFrame) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 800;
+  scene.height_px = 600;
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 1.8167;
+  scene.amplitude_mm = 0.19534;
+  scene.phase_angle_deg = 109.62;
+  scene.center_x_px = 388.3;
+  scene.radius_px = 343.6;
+  scene.source_blur_deg = 1.21;
+  scene.exposure = 0.0047;
+  scene.ambient = 0.0023;
+  scene.background = 0.0255;
+  scene.photons_full_scale = 3000.0;
+  scene.stray_light = 0.0595;
+  scene.stray_texture = 0.66;
+  scene.axial_glint_width = 0.208;
+  scene.background_gradient = -0.0009;
+  scene.background_gradient_deg = 296.0;
+  scene.seed = 75;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  if (!g.ok()) return;  // a refusal is an honest answer here
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_GE(found.left, 0.0);
+  EXPECT_LE(found.right, scene.width_px - 1.0);
+}
+
 // A mount 0.69 radii wide above and below the cylinder, brighter than the
 // body in shadow: over all rows its edges put steps into the shadow's
 // column means, which read as direct light there (refused). The phase
