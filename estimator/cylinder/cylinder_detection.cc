@@ -1,6 +1,7 @@
 #include "estimator/cylinder/cylinder_detection.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -1175,8 +1176,10 @@ struct WideProfile {
 // residuals, Gaussian with each side its own variance (the body's texture
 // is the background's noise and more), n·ln(RSS/n) per side, up to a
 // constant. Every split has the same parameters, so a difference of two is
-// a difference of BIC.
-double WideCost(const WideProfile& w, int delta) {
+// a difference of BIC. With `shading`, the stray light's R there, where it
+// stands kShadingSigmas of its least-squares error from zero (else 0).
+double WideCost(const WideProfile& w, int delta, double* shading = nullptr) {
+  constexpr double kShadingSigmas = 4.0;  // as LimbPlacer::RollOff
   const int split = w.out + delta;
   const int n = static_cast<int>(w.v.size());
   double s1 = 0, st = 0, stt = 0, sv = 0, stv = 0, svv = 0;
@@ -1207,6 +1210,10 @@ double WideCost(const WideProfile& w, int delta) {
   if (s1 < 3 || inside < 8) return std::numeric_limits<double>::infinity();
   const Eigen::Vector4d beta = a.ldlt().solve(b);
   const double sse_in = std::max(vv - b.dot(beta), 1e-300);
+  if (shading != nullptr) {
+    const double var = sse_in / std::max(inside - 4, 1) * a.inverse()(1, 1);
+    *shading = var > 0.0 && std::fabs(beta(1)) > kShadingSigmas * std::sqrt(var) ? beta(1) : 0.0;
+  }
   return s1 * std::log(std::max(sse_out, 1e-300) / s1) + inside * std::log(sse_in / inside);
 }
 
@@ -1217,29 +1224,39 @@ double WideCost(const WideProfile& w, int delta) {
 // cannot hold the model: the edge away from the light from 90° on (it may
 // be a terminator), a strip inside the limb too short for cos φ's curve
 // before the terminator or the lobe.
-double WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
-                    const std::vector<bool>& on_cylinder, int inward, double center_row,
-                    int side, double phase_angle_rad) {
+struct WideLimb {
+  double move = 0.0;     // px inward of the line
+  double shading = 0.0;  // the stray light's R at the limb so placed, away from the light
+};
+WideLimb WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
+                      const std::vector<bool>& on_cylinder, int inward, double center_row,
+                      int side, double phase_angle_rad) {
   constexpr int kSearchOutPx = 96;  // how far outside the line a limb is sought
   constexpr int kSearchInPx = 8;
   constexpr int kBackgroundPx = 16;  // the least background seen outside it
   constexpr int kMinBodyPx = 24;     // cos φ's curvature needs a few tens of px
   constexpr double kMinMovePx = 3.0;  // as ReseedFaintLimbs: the texture bends lines by ~2 px
-  if (!std::isfinite(phase_angle_rad) || bands.size() < 3) return 0.0;
+  if (!std::isfinite(phase_angle_rad) || bands.size() < 3) return WideLimb();
   const double alpha = std::fabs(phase_angle_rad);
   const bool toward_light = (inward > 0) == (phase_angle_rad < 0);
-  if (!toward_light && alpha >= 0.5 * M_PI) return 0.0;
+  if (!toward_light && alpha >= 0.5 * M_PI) return WideLimb();
   std::vector<double> radii;
   for (const BandEdges& b : bands) radii.push_back(b.radius);
   const double r = Median(radii);
   // The body's depth the window may reach: a third of the radius, short of
-  // the terminator (by a fifth, as RollOff) or, at the lit limb, of the
-  // lobe at α/2 (by two fifths: its caustics spread about it).
+  // the terminator (by a fifth, as RollOff: the model has no kink for the
+  // direct light's start) unless that lies within kSliverPx of the limb,
+  // where the blur hides the kink; or, at the lit limb, short of the lobe
+  // at α/2 (by two fifths: its caustics spread about it).
+  constexpr double kSliverPx = 2.0;
   double depth = r / 3.0;
-  if (!toward_light) depth = std::min(depth, 0.8 * r * (1.0 - std::cos(alpha)));
+  const double terminator_depth = r * (1.0 - std::cos(alpha));
+  if (!toward_light && terminator_depth > kSliverPx) {
+    depth = std::min(depth, 0.8 * terminator_depth);
+  }
   if (toward_light) depth = std::min(depth, 0.6 * r * (1.0 - std::sin(0.5 * alpha)));
   const int in = static_cast<int>(depth);
-  if (in < kSearchInPx + kMinBodyPx) return 0.0;
+  if (in < kSearchInPx + kMinBodyPx) return WideLimb();
   const int width = static_cast<int>(bands.front().profile.size());
   // The window outside reaches to the side strip.
   double least_room = std::numeric_limits<double>::infinity();
@@ -1249,7 +1266,7 @@ double WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
     least_room = std::min(least_room, inward > 0 ? p - side : width - 1 - side - p);
   }
   const int out = std::min(kSearchOutPx + kBackgroundPx, static_cast<int>(least_room));
-  if (out < kBackgroundPx + static_cast<int>(kMinMovePx) + 1) return 0.0;
+  if (out < kBackgroundPx + static_cast<int>(kMinMovePx) + 1) return WideLimb();
   WideProfile w;
   w.out = out;
   for (int d = 0; d < out + in; ++d) {
@@ -1302,36 +1319,46 @@ double WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
       best = delta;
     }
   }
-  // Decisive as FindShadowOnset's: above 10, odds beyond 150:1.
-  const double delta_bic = WideCost(w, 0) - best_cost;
-  if (std::abs(best) < kMinMovePx || !(delta_bic > 10.0)) return 0.0;
+  // Decisive as FindShadowOnset's: above 10, odds beyond 150:1. The
+  // shading only at the limb away from the light: at the lit one the cos φ
+  // term also carries the direct light and the lobe's flank, and held in
+  // the edge model it drew a smooth body's lit limb 0.6 px in.
+  WideLimb limb;
+  double* shading = toward_light ? nullptr : &limb.shading;
+  const double delta_bic = WideCost(w, 0, shading) - best_cost;
+  if (std::abs(best) < kMinMovePx || !(delta_bic > 10.0)) return limb;
   // The limb lies between pixels best − 1 and best: half a pixel before
   // the latter's centre.
-  return best - 0.5;
+  WideCost(w, best, shading);
+  limb.move = best - 0.5;
+  return limb;
 }
 
 // Each limb's first estimates moved where the wide model places it
-// (WideLimbMove), all onto its line.
-void PlaceLimbsWide(double center_row, int side, double phase_angle_rad,
-                    std::vector<BandEdges>* bands) {
+// (WideLimbMove), all onto its line; the stray light's R at each limb,
+// left and right.
+std::array<double, 2> PlaceLimbsWide(double center_row, int side, double phase_angle_rad,
+                                     std::vector<BandEdges>* bands) {
   std::vector<LimbPoint> left_first;
   std::vector<LimbPoint> right_first;
   for (const BandEdges& b : *bands) {
     left_first.push_back({b.row, b.left_cross});
     right_first.push_back({b.row, b.right_cross});
   }
-  if (bands->size() < 3) return;
+  if (bands->size() < 3) return {0.0, 0.0};
   const Line left = FitLimbLine(left_first, center_row);
   const Line right = FitLimbLine(right_first, center_row);
   // The cylinder's rows: the bands on both lines (a mount's or an end's
   // edges stand off them, and a mount's step outweighs a faint limb's).
   std::vector<bool> on_both(bands->size());
   for (std::size_t i = 0; i < bands->size(); ++i) on_both[i] = left.inlier[i] && right.inlier[i];
-  if (std::count(on_both.begin(), on_both.end(), true) < 3) return;
-  const double left_move =
+  if (std::count(on_both.begin(), on_both.end(), true) < 3) return {0.0, 0.0};
+  const WideLimb left_limb =
       WideLimbMove(*bands, left, on_both, +1, center_row, side, phase_angle_rad);
-  const double right_move =
+  const WideLimb right_limb =
       WideLimbMove(*bands, right, on_both, -1, center_row, side, phase_angle_rad);
+  const double left_move = left_limb.move;
+  const double right_move = right_limb.move;
   for (BandEdges& b : *bands) {
     if (left_move != 0.0) {
       b.left_cross = std::round(left.at_center + left.slope * (b.row - center_row)) + left_move;
@@ -1342,6 +1369,7 @@ void PlaceLimbsWide(double center_row, int side, double phase_angle_rad,
     }
     b.radius = 0.5 * (b.right_cross - b.left_cross);
   }
+  return {left_limb.shading, right_limb.shading};
 }
 
 // The first and last columns of [from, to] more than half-way from the
@@ -2149,9 +2177,17 @@ BesideLimb MeasureBesideLimb(const std::vector<double>& profile, double edge, in
 // limbs, with the errors the blur and the held S carry into each limb.
 class LimbPlacer {
  public:
+  // `shading`: each limb's stray-light R from the wide window
+  // (PlaceLimbsWide), left and right, 0 at the lit one; RollOff's replaces
+  // it where it measures one (a strip short of the terminator and the
+  // blur: not at small phase angles, where the direct light starts within
+  // a pixel or two of the limb).
   LimbPlacer(const std::vector<BandEdges>& bands_seen, const PixelRegion& region,
-             double center_row, const CylinderDetectionOptions& options)
+             double center_row, const CylinderDetectionOptions& options,
+             const std::array<double, 2>& shading)
       : bands_seen_(bands_seen), region_(region), center_row_(center_row), options_(options) {
+    rolloff_[0] = shading[0];
+    rolloff_[1] = shading[1];
     for (const BandEdges& band : bands_seen) {
       background_[0].push_back(band.left_background);
       background_[1].push_back(band.right_background);
@@ -2639,7 +2675,7 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   double& away_rolloff = rolloff_[away > 0 ? 0 : 1];
   if (shaded) {
     placed.unlit_shading = RollOff(away, away_points, 2.0);
-    away_rolloff = placed.unlit_shading.rolloff;
+    if (placed.unlit_shading.measured) away_rolloff = placed.unlit_shading.rolloff;
   }
   ForBothLimbs([&] { left_points = RefineLimb(+1, std::numeric_limits<double>::quiet_NaN()); },
                [&] { right_points = RefineLimb(-1, std::numeric_limits<double>::quiet_NaN()); });
@@ -3040,8 +3076,9 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
     trace->all_rows_left_x = reseeded.all_left;
     trace->all_rows_right_x = reseeded.all_right;
   }
-  PlaceLimbsWide(center_row, side, options.phase_angle_rad, &bands_seen);
-  LimbPlacer placer(bands_seen, region, center_row, options);
+  const std::array<double, 2> shading =
+      PlaceLimbsWide(center_row, side, options.phase_angle_rad, &bands_seen);
+  LimbPlacer placer(bands_seen, region, center_row, options, shading);
   PlacedLimbs placed = placer.Place(shadow_is_limb);
   std::vector<LimbPoint>& left_points = placed.left_points;
   std::vector<LimbPoint>& right_points = placed.right_points;

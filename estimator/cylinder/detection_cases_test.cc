@@ -955,6 +955,50 @@ TEST(DetectionCasesTest, NoLimbIsInferredOutsideTheFrame) {
   EXPECT_LE(found.right, scene.width_px - 1.0);
 }
 
+// At −7.5° the limb away from the light is lit from a pixel or two inside
+// it, and a matte body's direct light (with the stray light's) falls to
+// it as cos φ, over tens of pixels. Too close to the terminator for the
+// shading to be measured beyond the lens blur, it is taken from the wide
+// window's model and held in the edge model. (Without it that limb stood
+// 8 px inside, where a flat body's step fits the fall-off best.)
+TEST(DetectionCasesTest, AMatteBodyFallingOffToItsUnlitLimbAtASmallPhaseAngleKeepsIt) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.model = ProfileModel::kSmooth;
+  scene.wavelength_mm = 1.8555;
+  scene.amplitude_mm = 0.05277;
+  scene.phase_angle_deg = -7.47;
+  scene.center_x_px = 296.8;
+  scene.radius_px = 165.0;
+  scene.axis_angle_deg = -0.13;
+  scene.top_row_px = 29;
+  scene.bottom_row_px = 398;
+  scene.source_blur_deg = 1.27;
+  scene.exposure = 0.0039;
+  scene.diffuse = 0.089;
+  scene.ambient = 0.0122;
+  scene.background = 0.0373;
+  scene.mount_level = 0.049;
+  scene.mount_half_width = 0.76;
+  scene.stray_light = 0.0203;
+  scene.stray_texture = 0.35;
+  scene.axial_glint_width = 0.124;
+  scene.axial_float_width = 0.35;
+  scene.black_level = 0.0215;
+  scene.seed = 149;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  const Limbs truth = TrueLimbs(rendered.truth);
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  // The lit limb: its own body's rise (the direct light's cos φ, which its
+  // edge model does not hold) puts it a pixel in.
+  EXPECT_NEAR(found.left, truth.left, 1.5);
+  EXPECT_NEAR(found.right, truth.right, 1.0);
+}
+
 // A mount 0.69 radii wide above and below the cylinder, brighter than the
 // body in shadow: over all rows its edges put steps into the shadow's
 // column means, which read as direct light there (refused). The phase
