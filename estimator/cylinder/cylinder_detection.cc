@@ -1234,7 +1234,7 @@ WideLimb WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
   constexpr int kSearchOutPx = 96;  // how far outside the line a limb is sought
   constexpr int kSearchInPx = 8;
   constexpr int kBackgroundPx = 16;  // the least background seen outside it
-  constexpr int kMinBodyPx = 24;     // cos φ's curvature needs a few tens of px
+  constexpr int kMinBodyPx = 20;     // cos φ's curvature needs a few tens of px
   constexpr double kMinMovePx = 3.0;  // as ReseedFaintLimbs: the texture bends lines by ~2 px
   if (!std::isfinite(phase_angle_rad) || bands.size() < 3) return WideLimb();
   const double alpha = std::fabs(phase_angle_rad);
@@ -2558,7 +2558,7 @@ Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
     if (!line.inlier[i]) continue;
     const BandEdges& band = bands_seen_[i];
     const double r = band.radius;
-    double depth = 0.5 * r;
+    double depth = r / 3.0;
     if (alpha < 0.5 * M_PI) depth = std::min(depth, 0.8 * r * (1.0 - std::cos(alpha)));
     if (!(depth - from_px >= kMinStripPx)) continue;
     const double e = line.at_center + line.slope * (band.row - center_row_) - region_.x;
