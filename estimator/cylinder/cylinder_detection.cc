@@ -2558,7 +2558,7 @@ Shading LimbPlacer::RollOff(int inward, const std::vector<LimbPoint>& points,
     if (!line.inlier[i]) continue;
     const BandEdges& band = bands_seen_[i];
     const double r = band.radius;
-    double depth = r / 3.0;
+    double depth = 0.5 * r;
     if (alpha < 0.5 * M_PI) depth = std::min(depth, 0.8 * r * (1.0 - std::cos(alpha)));
     if (!(depth - from_px >= kMinStripPx)) continue;
     const double e = line.at_center + line.slope * (band.row - center_row_) - region_.x;
