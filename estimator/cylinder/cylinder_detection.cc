@@ -965,10 +965,16 @@ struct StripNoise {
 StripNoise StripRowNoise(const Image& luminance, const PixelRegion& region, int side,
                          const std::vector<int>& rows) {
   constexpr int kRowApart = 8;
+  // At most about kSamples differences per strip: the spread's median is
+  // then known to about 2 %.
+  constexpr std::size_t kSamples = 4096;
+  const std::size_t row_step =
+      std::max<std::size_t>(1, rows.size() * std::max(side, 1) / kSamples);
   std::vector<double> left_steps;
   std::vector<double> right_steps;
   const int last_row = region.y + region.height - 1;
-  for (int y : rows) {
+  for (std::size_t r = 0; r < rows.size(); r += row_step) {
+    const int y = rows[r];
     if (y + kRowApart > last_row) continue;
     for (int i = 0; i < side; ++i) {
       const int xl = region.x + i;
@@ -1169,7 +1175,38 @@ struct WideProfile {
   // The body's terms over the pixel at depths d .. d + 1 inside a limb:
   // 1, cos φ, d + ½ and the grazing scatter, for d = 0 .. size − 1.
   std::vector<Eigen::Vector4d> terms;
+  // Sums that make each split's fit a few operations (Prepare): over the
+  // used pixels before j, of 1, j, j², v, j·v, v² (outside; a line's
+  // residuals do not change with where t = 0 is put); of the terms' outer
+  // products over depths before d; and of v² and 1 over the used pixels
+  // from j on.
+  std::vector<std::array<double, 6>> before;
+  std::vector<Eigen::Matrix4d> outer;
+  std::vector<double> vv_from;
+  std::vector<int> used_from;
+  void Prepare();
 };
+
+void WideProfile::Prepare() {
+  const int n = static_cast<int>(v.size());
+  before.assign(n + 1, {0, 0, 0, 0, 0, 0});
+  for (int j = 0; j < n; ++j) {
+    before[j + 1] = before[j];
+    if (!use[j]) continue;
+    const double t = j;
+    const double x = v[j];
+    const std::array<double, 6> add = {1.0, t, t * t, x, t * x, x * x};
+    for (int k = 0; k < 6; ++k) before[j + 1][k] += add[k];
+  }
+  outer.assign(n + 1, Eigen::Matrix4d::Zero());
+  for (int d = 0; d < n; ++d) outer[d + 1] = outer[d] + terms[d] * terms[d].transpose();
+  vv_from.assign(n + 1, 0.0);
+  used_from.assign(n + 1, 0);
+  for (int j = n - 1; j >= 0; --j) {
+    vv_from[j] = vv_from[j + 1] + (use[j] ? v[j] * v[j] : 0.0);
+    used_from[j] = used_from[j + 1] + (use[j] ? 1 : 0);
+  }
+}
 
 // How well the wide model explains the window with the limb before pixel
 // j = out + delta (delta > 0: inward of the line): −2 ln L of its
@@ -1178,38 +1215,31 @@ struct WideProfile {
 // constant. Every split has the same parameters, so a difference of two is
 // a difference of BIC. With `shading`, the stray light's R there, where it
 // stands kShadingSigmas of its least-squares error from zero (else 0).
+// `w` Prepared.
 double WideCost(const WideProfile& w, int delta, double* shading = nullptr) {
   constexpr double kShadingSigmas = 4.0;  // as LimbPlacer::RollOff
   const int split = w.out + delta;
   const int n = static_cast<int>(w.v.size());
-  double s1 = 0, st = 0, stt = 0, sv = 0, stv = 0, svv = 0;
-  for (int j = 0; j < split; ++j) {
-    if (!w.use[j]) continue;
-    const double t = j - split;
-    s1 += 1;
-    st += t;
-    stt += t * t;
-    sv += w.v[j];
-    stv += t * w.v[j];
-    svv += w.v[j] * w.v[j];
-  }
-  const double vtt = stt - st * st / s1, vtv = stv - st * sv / s1, vvv = svv - sv * sv / s1;
-  const double sse_out = vtt > 0.0 ? vvv - vtv * vtv / vtt : vvv;
-  Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
-  Eigen::Vector4d b = Eigen::Vector4d::Zero();
-  double vv = 0.0;
-  int inside = 0;
-  for (int j = split; j < n; ++j) {
-    if (!w.use[j]) continue;
-    const Eigen::Vector4d& f = w.terms[j - split];
-    a += f * f.transpose();
-    b += f * w.v[j];
-    vv += w.v[j] * w.v[j];
-    ++inside;
-  }
+  const std::array<double, 6>& o = w.before[split];
+  const double s1 = o[0];
+  const int inside = w.used_from[split];
   if (s1 < 3 || inside < 8) return std::numeric_limits<double>::infinity();
+  const double vtt = o[2] - o[1] * o[1] / s1, vtv = o[4] - o[1] * o[3] / s1;
+  const double vvv = o[5] - o[3] * o[3] / s1;
+  const double sse_out = vtt > 0.0 ? vvv - vtv * vtv / vtt : vvv;
+  // All depths' outer products, less the unused pixels'.
+  Eigen::Matrix4d a = w.outer[n - split];
+  Eigen::Vector4d b = Eigen::Vector4d::Zero();
+  for (int j = split; j < n; ++j) {
+    const Eigen::Vector4d& f = w.terms[j - split];
+    if (w.use[j]) {
+      b += f * w.v[j];
+    } else {
+      a -= f * f.transpose();
+    }
+  }
   const Eigen::Vector4d beta = a.ldlt().solve(b);
-  const double sse_in = std::max(vv - b.dot(beta), 1e-300);
+  const double sse_in = std::max(w.vv_from[split] - b.dot(beta), 1e-300);
   if (shading != nullptr) {
     const double var = sse_in / std::max(inside - 4, 1) * a.inverse()(1, 1);
     *shading = var > 0.0 && std::fabs(beta(1)) > kShadingSigmas * std::sqrt(var) ? beta(1) : 0.0;
@@ -1298,17 +1328,25 @@ WideLimb WideLimbMove(const std::vector<BandEdges>& bands, const Line& line,
   // times their spread (MAD): the model has no term for it.
   constexpr int kHalf = 5;
   std::vector<bool> glint(out + in, false);
+  std::array<double, 2 * kHalf + 1> near;
+  // The median of near's first m values (the upper one for an even count).
+  auto median_of = [&near](int m) {
+    std::nth_element(near.begin(), near.begin() + m / 2, near.begin() + m);
+    return near[m / 2];
+  };
   for (int j = 0; j < out + in; ++j) {
-    std::vector<double> near;
+    if (!w.use[j]) continue;
+    int m = 0;
     for (int k = std::max(0, j - kHalf); k <= std::min(out + in - 1, j + kHalf); ++k) {
-      if (w.use[k]) near.push_back(w.v[k]);
+      if (w.use[k]) near[m++] = w.v[k];
     }
-    if (near.size() < 5 || !w.use[j]) continue;
-    const double med = Median(near);
-    for (double& x : near) x = std::fabs(x - med);
-    glint[j] = w.v[j] - med > 4.0 * 1.4826 * Median(near);
+    if (m < 5) continue;
+    const double med = median_of(m);
+    for (int k = 0; k < m; ++k) near[k] = std::fabs(near[k] - med);
+    glint[j] = w.v[j] - med > 4.0 * 1.4826 * median_of(m);
   }
   for (int j = 0; j < out + in; ++j) w.use[j] = w.use[j] && !glint[j];
+  w.Prepare();
   const int from = -(out - kBackgroundPx);
   double best_cost = std::numeric_limits<double>::infinity();
   int best = 0;
