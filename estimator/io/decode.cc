@@ -13,6 +13,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <set>
+#include <string>
 #include <type_traits>
 
 #include "absl/status/status.h"
@@ -197,13 +199,18 @@ absl::StatusOr<ImageHeader> ReadExrHeader(const std::string& bytes) {
   // end; that input alone does not reproduce it, so an earlier malformed
   // one may have done the damage. No list that runs past the data or
   // misstates a fixed size reaches OpenEXR now.)
+  // Each attribute once: OpenEXR 3.1 kept the first of two data windows
+  // where this walk kept the last, and wrote a 65731 × 48 window into the
+  // 2 × 1 image sized from it (ASan, fuzz_decode_minute).
   std::optional<ImageHeader> header;
+  std::set<std::string> names;
   std::size_t at = 8;
   while (true) {
     if (at >= n) return Malformed("EXR", "header not terminated");
     absl::StatusOr<std::string> name = read_string(&at);
     if (!name.ok()) return name.status();
     if (name->empty()) break;  // end of the header
+    if (!names.insert(*name).second) return Malformed("EXR", "an attribute is given twice");
     absl::StatusOr<std::string> type = read_string(&at);
     if (!type.ok()) return type.status();
     if (at + 4 > n) return Malformed("EXR", "attribute size truncated");
@@ -302,6 +309,12 @@ absl::StatusOr<Image> DecodeExr(const std::string& bytes,
     MemoryIStream stream(bytes);
     Imf::InputFile file(stream);
     const Imath::Box2i window = file.header().dataWindow();
+    // The image is sized from weavefit's own reading of the header: OpenEXR
+    // must write the same window into it.
+    if (std::int64_t{window.max.x} - window.min.x + 1 != header.width ||
+        std::int64_t{window.max.y} - window.min.y + 1 != header.height) {
+      return Malformed("EXR", "the data window OpenEXR reads is not the header's");
+    }
     const Imf::ChannelList& list = file.header().channels();
     std::vector<std::string> names;
     if (list.findChannel("R") && list.findChannel("G") &&

@@ -474,6 +474,24 @@ TEST(DecodeCasesTest, AnExrFixedSizeAttributeOfAnotherSizeIsRefused) {
       << image.status();
 }
 
+// Two data windows, 65731 × 48 and then 2 × 1 (as an input fuzz_decode_minute
+// made): OpenEXR 3.1 read the first, weavefit sized the image from the
+// last, and OpenEXR wrote past its end. An attribute given twice is refused.
+TEST(DecodeCasesTest, AnExrAttributeGivenTwiceIsRefused) {
+  std::string bytes = ExrHeader({"Y"}, ExrSample::kHalf, 0, 0, 65730, 47);
+  bytes.pop_back();
+  std::string window(16, '\0');
+  window[8] = 1;  // max.x = 1, max.y = 0: 2 × 1
+  PutAttribute(bytes, "dataWindow", "box2i", window);
+  bytes.push_back('\0');
+  bytes.append(8 * 48, '\0');
+  absl::StatusOr<Image> image = DecodeImage(bytes, DecodeOptions());
+  ASSERT_FALSE(image.ok());
+  EXPECT_EQ(image.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(image.status().message().find("given twice"), std::string::npos)
+      << image.status();
+}
+
 // The same header with nothing after it, as a truncated upload would be. A
 // PNG header over garbage is refused for its size (decode_test.cc,
 // HugeHeaderIsRejectedBeforeDecoding); an EXR header should be too.
