@@ -990,11 +990,15 @@ StripNoise StripRowNoise(const Image& luminance, const PixelRegion& region, int 
   return {one_pixel(left_steps), one_pixel(right_steps)};
 }
 
-// The side strips' width and each one's background level.
-struct SideLevels {
+// The background beside the cylinder: the side strips' width (at least
+// 2 px), their level (both strips', and each side's own, for a gradient
+// across the frame) and one pixel's noise.
+struct SideStrips {
   int side = 0;
-  double left = 0.0;
-  double right = 0.0;
+  double background = 0.0;
+  double left_background = 0.0;
+  double right_background = 0.0;
+  double noise = 0.0;
 };
 
 // How many columns between two edges show a body: a mean over all rows
@@ -1020,7 +1024,7 @@ struct BodyCoverage {
   bool limbs_step_into_body = false;
 };
 BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
-                       const std::vector<double>& mean_profile, const SideLevels& strips,
+                       const std::vector<double>& mean_profile, const SideStrips& strips,
                        int mean_rows, double edge_sigmas, const std::vector<BandEdges>& bands,
                        double left_column, double right_column) {
   constexpr double kTextureSigmas = 6.0;
@@ -1044,7 +1048,7 @@ BodyCoverage CoverBody(const Image& luminance, const PixelRegion& region,
        x <= static_cast<int>(std::floor(right_column)) - 2; ++x) {
     if (x < region.x || x >= region.x + region.width) continue;
     ++c.total;
-    if (std::fabs(mean_profile[x - region.x] - along(x, strips.left, strips.right)) >
+    if (std::fabs(mean_profile[x - region.x] - along(x, strips.left_background, strips.right_background)) >
         mean_threshold(x)) {
       ++c.on;
       continue;
@@ -2857,16 +2861,7 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   return placed;
 }
 
-// The background beside the cylinder: `side_fraction` of the region's width
-// at each side (at least 2 px), its level (both strips', and each side's
-// own, for a gradient across the frame) and one pixel's noise.
-struct SideStrips {
-  int side = 0;
-  double background = 0.0;
-  double left_background = 0.0;
-  double right_background = 0.0;
-  double noise = 0.0;
-};
+// SideStrips, measured: `side_fraction` of the region's width at each side.
 SideStrips MeasureSideStrips(const Image& luminance, const PixelRegion& region,
                              double side_fraction) {
   SideStrips strips;
@@ -3164,9 +3159,8 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   // The surface between the two edges must be continuous: edges found on
   // isolated glints (a body as dark as the background, no lit terminator)
   // would place a cylinder that is not there.
-  if (const BodyCoverage body = CoverBody(luminance, region, mean_profile,
-                                          {side, strips.left_background, strips.right_background},
-                                          mean_rows, options.edge_sigmas, bands_seen,
+  if (const BodyCoverage body = CoverBody(luminance, region, mean_profile, strips, mean_rows,
+                                          options.edge_sigmas, bands_seen,
                                           left.at_center, right.at_center);
       body.total == 0 || (body.on < kBodyShare * body.total && !body.limbs_step_into_body)) {
     return refuse(absl::StrCat(

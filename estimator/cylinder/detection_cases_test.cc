@@ -301,6 +301,19 @@ absl::StatusOr<CylinderGeometry> DetectKnowingPhase(const Rendered& rendered,
   return DetectCylinder(rendered.image, options);
 }
 
+// Both limbs seen, each within its tolerance of the truth (px), with the
+// phase angle given.
+void ExpectBothLimbsSeenWithin(const RenderScene& scene, double left_px, double right_px) {
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  const Limbs truth = TrueLimbs(rendered.truth);
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_TRUE(g->left_observed && g->right_observed);
+  EXPECT_NEAR(found.left, truth.left, left_px);
+  EXPECT_NEAR(found.right, truth.right, right_px);
+}
+
 // The lit limb observed within kLimbTolerancePx, the dark one flagged and
 // within 2 px, the tilt (from the lit limb) within kTiltToleranceDeg.
 void ExpectInferredDarkLimb(const RenderScene& scene) {
@@ -844,14 +857,7 @@ TEST(DetectionCasesTest, AStrayLitBodyDarkerThanTheBackdropAtItsLitLimbKeepsThat
   scene.photons_full_scale = 50000.0;
   scene.read_noise = 0.002;
   scene.seed = 3;
-  const Rendered rendered = Render(scene);
-  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
-  ASSERT_TRUE(g.ok()) << g.status();
-  const Limbs truth = TrueLimbs(rendered.truth);
-  const Limbs found = DetectedLimbs(scene, *g);
-  EXPECT_TRUE(g->left_observed && g->right_observed);
-  EXPECT_NEAR(found.left, truth.left, 1.0);
-  EXPECT_NEAR(found.right, truth.right, 1.0);
+  ExpectBothLimbsSeenWithin(scene, 1.0, 1.0);
 }
 
 // At 96° a body in stray light alone meets its lit limb at the ambient
@@ -889,14 +895,7 @@ TEST(DetectionCasesTest, ABodyAtTheBackdropsLevelUnderAGradientKeepsItsLitLimb) 
   scene.background_gradient = 0.0233;
   scene.background_gradient_deg = 190.0;
   scene.seed = 2;
-  const Rendered rendered = Render(scene);
-  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
-  ASSERT_TRUE(g.ok()) << g.status();
-  const Limbs truth = TrueLimbs(rendered.truth);
-  const Limbs found = DetectedLimbs(scene, *g);
-  EXPECT_TRUE(g->left_observed && g->right_observed);
-  EXPECT_NEAR(found.left, truth.left, 1.0);
-  EXPECT_NEAR(found.right, truth.right, 1.0);
+  ExpectBothLimbsSeenWithin(scene, 1.0, 1.0);
 }
 
 // A glossy body as dark and as smooth as the backdrop shows only its
@@ -987,16 +986,9 @@ TEST(DetectionCasesTest, AMatteBodyFallingOffToItsUnlitLimbAtASmallPhaseAngleKee
   scene.axial_float_width = 0.35;
   scene.black_level = 0.0215;
   scene.seed = 149;
-  const Rendered rendered = Render(scene);
-  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
-  ASSERT_TRUE(g.ok()) << g.status();
-  const Limbs truth = TrueLimbs(rendered.truth);
-  const Limbs found = DetectedLimbs(scene, *g);
-  EXPECT_TRUE(g->left_observed && g->right_observed);
-  // The lit limb: its own body's rise (the direct light's cos φ, which its
-  // edge model does not hold) puts it a pixel in.
-  EXPECT_NEAR(found.left, truth.left, 1.5);
-  EXPECT_NEAR(found.right, truth.right, 1.0);
+  // The lit limb (left): its own body's rise (the direct light's cos φ,
+  // which its edge model does not hold) puts it a pixel in.
+  ExpectBothLimbsSeenWithin(scene, 1.5, 1.0);
 }
 
 // A mount 0.69 radii wide above and below the cylinder, brighter than the
