@@ -15,6 +15,7 @@
 #include "estimator/cylinder/cylinder_detection.h"
 #include "estimator/glints/comb_fit.h"
 #include "estimator/glints/glint_period.h"
+#include "estimator/glints/weave_lattice.h"
 #include "estimator/io/decode.h"
 #include "estimator/io/image.h"
 #include "estimator/optics/radiance.h"
@@ -74,6 +75,7 @@ struct EstimateOptions {
   CylinderDetectionOptions detection;
   ProfileOptions profile;
   PeakPickingOptions peaks;
+  AxialPitchOptions lattice;
   GlintPeriodOptions glints;
   CombFitOptions comb;
   int fit_max_iterations = 100;  // accurate mode's least-squares fits

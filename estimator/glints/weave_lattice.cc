@@ -1,0 +1,306 @@
+#include "estimator/glints/weave_lattice.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_format.h"
+#include "estimator/stats/median.h"
+
+namespace weavefit {
+namespace {
+
+// Samples per block of the shading taken out of a row: 32 px at the arc
+// signals' half-pixel step, short enough to follow a Lambertian or stray-lit
+// body's shading, long enough that one glint line (about 3 px wide) leaves
+// its median on the body.
+constexpr int kShadingBlock = 64;
+
+// The row's shading: medians of blocks, interpolated linearly between the
+// blocks' centres.
+std::vector<double> RowShading(const float* v, int n) {
+  const int blocks = std::max(1, n / kShadingBlock);
+  std::vector<double> centre(blocks);
+  std::vector<double> level(blocks);
+  std::vector<double> part;
+  for (int b = 0; b < blocks; ++b) {
+    const int lo = b * n / blocks;
+    const int hi = (b + 1) * n / blocks;
+    part.assign(v + lo, v + hi);
+    level[b] = Median(part);
+    centre[b] = 0.5 * (lo + hi - 1);
+  }
+  std::vector<double> shading(n);
+  int b = 0;
+  for (int k = 0; k < n; ++k) {
+    while (b + 2 < blocks && k > centre[b + 1]) ++b;
+    if (blocks == 1) {
+      shading[k] = level[0];
+      continue;
+    }
+    const double t = std::clamp((k - centre[b]) / (centre[b + 1] - centre[b]), 0.0, 1.0);
+    shading[k] = level[b] + t * (level[b + 1] - level[b]);
+  }
+  return shading;
+}
+
+// One row's deviation from its shading in noise sigmas, clamped (a clipped
+// sample counts as a glint), under a Hann window. (Each arc is its own
+// window: its lines' phase is unrelated to another arc's across the lobe.)
+std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise, double clamp) {
+  const int n = signals.num_samples;
+  const float* v = signals.Row(row);
+  const std::uint8_t* ok = &signals.valid[static_cast<std::size_t>(row) * n];
+  const std::vector<double> shading = RowShading(v, n);
+  std::vector<float> x(n);
+  for (int k = 0; k < n; ++k) {
+    const double z = ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp) : clamp;
+    const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / n);
+    x[k] = static_cast<float>(z * hann);
+  }
+  return x;
+}
+
+// The power spectrum of a windowed row zero-padded to `size`, bins 0..size/2.
+std::vector<double> PowerOf(const std::vector<float>& row, int size) {
+  cv::Mat in = cv::Mat::zeros(1, size, CV_32F);
+  std::copy(row.begin(), row.end(), in.ptr<float>());
+  cv::Mat out;
+  cv::dft(in, out, cv::DFT_COMPLEX_OUTPUT);
+  std::vector<double> power(size / 2 + 1);
+  const cv::Vec2f* c = out.ptr<cv::Vec2f>();
+  for (int k = 0; k <= size / 2; ++k) {
+    power[k] = double(c[k][0]) * c[k][0] + double(c[k][1]) * c[k][1];
+  }
+  return power;
+}
+
+// How much of the rows' power at `cycles` per sample survives averaging the
+// rows: 1 when their lines stand at the same azimuths in every row (threads
+// along the axis), about 1/rows when each row has its own phase, near 0 for
+// a checkerboard. Arcs' sums add as powers.
+double RowCoherence(const std::vector<std::vector<std::vector<float>>>& arcs, double cycles) {
+  double coherent = 0.0;
+  double total = 0.0;
+  for (const std::vector<std::vector<float>>& rows : arcs) {
+    std::complex<double> sum = 0.0;
+    double power = 0.0;
+    for (const std::vector<float>& x : rows) {
+      std::complex<double> at = 0.0;
+      for (std::size_t k = 0; k < x.size(); ++k) at += double(x[k]) * std::polar(1.0, -2.0 * M_PI * cycles * k);
+      sum += at;
+      power += std::norm(at);
+    }
+    coherent += std::norm(sum);
+    total += power * rows.size();
+  }
+  return total > 0.0 ? coherent / total : 0.0;
+}
+
+// The local maximum of `power` nearest `k` within ±reach bins, refined by a
+// parabola through the logarithms of it and its neighbours (a Hann window's
+// main lobe is close to a Gaussian, whose logarithm is a parabola).
+double RefinePeak(const std::vector<double>& power, double k, int reach) {
+  const int last = static_cast<int>(power.size()) - 2;
+  const int at = std::clamp(static_cast<int>(std::lround(k)), 1, last);
+  int best = at;
+  for (int j = std::max(1, at - reach); j <= std::min(last, at + reach); ++j) {
+    if (power[j] > power[best]) best = j;
+  }
+  const double a = std::log(std::max(power[best - 1], 1e-300));
+  const double b = std::log(std::max(power[best], 1e-300));
+  const double c = std::log(std::max(power[best + 1], 1e-300));
+  const double d = a - 2.0 * b + c;
+  return best + (d < 0.0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0);
+}
+
+// The lattice seen in a summed spectrum: bins of the band [k_lo, k_hi] and
+// the power above the band's median (the floor of clamped noise, which a
+// lattice's narrow harmonics barely move), in units of that floor.
+struct Spectrum {
+  int k_lo = 0;
+  int k_hi = 0;
+  std::vector<double> excess;  // per bin, 0 below the floor
+
+  // The excess at the harmonic nearest bin k, within ±1 bin (the Hann
+  // window's main lobe spans ±2 bins at twofold zero padding).
+  double Near(double k) const {
+    const int at = static_cast<int>(std::lround(k));
+    double e = 0.0;
+    for (int j = std::max(0, at - 1); j <= std::min(static_cast<int>(excess.size()) - 1, at + 1); ++j) {
+      e = std::max(e, excess[j]);
+    }
+    return e;
+  }
+  // The lattice's harmonics summed: every line of a lattice of fundamental
+  // bin k lies at a multiple of k (epoch folding in the frequency domain).
+  double Harmonics(double k) const {
+    double h = 0.0;
+    for (int j = 1; j * k <= k_hi + 1; ++j) h += Near(j * k);
+    return h;
+  }
+};
+
+Spectrum MakeSpectrum(const std::vector<double>& power, int k_lo, int k_hi) {
+  Spectrum s;
+  s.k_lo = k_lo;
+  s.k_hi = k_hi;
+  std::vector<double> band(power.begin() + k_lo, power.begin() + k_hi + 1);
+  const double floor = std::max(Median(band), 1e-300);
+  s.excess.assign(power.size(), 0.0);
+  for (std::size_t k = 0; k < power.size(); ++k) s.excess[k] = std::max(0.0, power[k] / floor - 1.0);
+  return s;
+}
+
+// A share of the strongest harmonic sum that the fundamental must reach:
+// folded at twice its pitch a lattice keeps all its harmonics (and at half
+// its pitch only the even ones, about half of them), so the shortest pitch
+// whose harmonics hold most of the strongest sum is the lines' own.
+constexpr double kFundamentalShare = 0.7;
+
+// Steps of the harmonic sum's search, in bins: fine enough that the 10th
+// harmonic of a step's fundamental lies within the ±1 bin Near() searches.
+constexpr double kSearchStep = 0.1;
+
+// The fundamental (in bins) of the lattice: the highest local maximum of the
+// harmonic sum that reaches kFundamentalShare of the strongest; -1 if none.
+double FundamentalBin(const Spectrum& s) {
+  const int steps = static_cast<int>((s.k_hi - s.k_lo) / kSearchStep);
+  std::vector<double> h(steps + 1, 0.0);
+  double top = 0.0;
+  for (int i = 0; i <= steps; ++i) {
+    h[i] = s.Harmonics(s.k_lo + i * kSearchStep);
+    top = std::max(top, h[i]);
+  }
+  for (int i = steps - 1; i > 0; --i) {
+    if (h[i] >= h[i - 1] && h[i] >= h[i + 1] && h[i] >= kFundamentalShare * top && h[i] > 0.0) {
+      return s.k_lo + i * kSearchStep;
+    }
+  }
+  return -1.0;
+}
+
+// The fundamental refined from every harmonic that stands out, each weighed
+// by its excess (the j-th harmonic places the fundamental j times better).
+double RefineFundamental(const std::vector<double>& power, const Spectrum& s, double k0,
+                         double min_excess) {
+  double num = 0.0;
+  double den = 0.0;
+  for (int j = 1; j * k0 <= s.k_hi + 1; ++j) {
+    const double e = s.Near(j * k0);
+    if (e < min_excess) continue;
+    const double kj = RefinePeak(power, j * RefinePeak(power, k0, 1), 2);
+    num += e * j * kj;
+    den += e * j * j;
+  }
+  return den > 0.0 ? num / den : k0;
+}
+
+}  // namespace
+
+absl::Status AxialPitchOptions::Validate() const {
+  if (!(min_px_per_pitch > 0.0) || !(min_pitches >= 2.0) || !(clamp_sigmas > 0.0) ||
+      !(min_contrast > 1.0) || jackknife_groups < 2) {
+    return absl::InvalidArgumentError(
+        "axial pitch options: min_px_per_pitch and clamp_sigmas must be positive, min_pitches at "
+        "least 2, min_contrast above 1 and jackknife_groups at least 2");
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arcs,
+                                              double step_px, double pixel_noise,
+                                              const AxialPitchOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (!(step_px > 0.0)) return absl::InvalidArgumentError("axial pitch: step_px must be positive");
+  AxialPitch result;
+  int n = 0;  // the longest arc's samples
+  double step_mm = 0.0;
+  for (const ArcSignals& a : arcs) {
+    if (a.rows.empty()) continue;
+    if (a.num_samples > n) step_mm = a.StepMm();
+    n = std::max(n, a.num_samples);
+    result.rows_used += static_cast<int>(a.rows.size());
+  }
+  // Pitches from min_px_per_pitch up to the longest arc over min_pitches, in
+  // samples.
+  const double shortest = options.min_px_per_pitch / step_px;
+  const double longest = n / options.min_pitches;
+  if (result.rows_used < 2 || longest <= shortest) {
+    result.reason = absl::StrFormat(
+        "the lit arc beside the lobe (%d samples at most) is too short to hold %.0f thread "
+        "pitches",
+        n, options.min_pitches);
+    return result;
+  }
+  const int size = cv::getOptimalDFTSize(2 * n);
+  const int groups = std::clamp(result.rows_used / 2, 2, options.jackknife_groups);
+  std::vector<std::vector<double>> group_power(groups, std::vector<double>(size / 2 + 1, 0.0));
+  // Noise of a sample interpolated between pixels is at most one pixel's.
+  const double noise = std::max(pixel_noise, 1e-9);
+  int count = 0;
+  std::vector<std::vector<std::vector<float>>> windowed;
+  for (const ArcSignals& a : arcs) {
+    windowed.emplace_back();
+    for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
+      windowed.back().push_back(WindowedRow(a, static_cast<int>(i), noise, options.clamp_sigmas));
+      const std::vector<double> p = PowerOf(windowed.back().back(), size);
+      std::vector<double>& g = group_power[count % groups];
+      for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
+    }
+  }
+  std::vector<double> total(size / 2 + 1, 0.0);
+  for (const std::vector<double>& g : group_power) {
+    for (std::size_t k = 0; k < total.size(); ++k) total[k] += g[k];
+  }
+  const int k_lo = std::max(2, static_cast<int>(std::ceil(size / longest)));
+  const int k_hi = std::min(size / 2 - 2, static_cast<int>(std::floor(size / shortest)));
+  if (k_hi <= k_lo + 2) {
+    result.reason = "the lit arc is too short to resolve a thread pitch";
+    return result;
+  }
+  const Spectrum spectrum = MakeSpectrum(total, k_lo, k_hi);
+  const double k0 = FundamentalBin(spectrum);
+  result.contrast = k0 > 0.0 ? spectrum.Near(k0) + 1.0 : 0.0;
+  if (k0 < 0.0 || result.contrast < options.min_contrast) {
+    result.reason = absl::StrFormat(
+        "no lattice of thread glints: the rows' spectra peak at most %.1f times above their "
+        "floor, %.0f needed",
+        result.contrast, options.min_contrast);
+    return result;
+  }
+  result.half_contrast = spectrum.Near(0.5 * k0) + 1.0;
+  const double min_excess = options.min_contrast - 1.0;
+  const double k_peak = RefineFundamental(total, spectrum, k0, min_excess);
+  // Jackknife over the groups of rows, the harmonics chosen once.
+  std::vector<double> k_without(groups);
+  std::vector<double> rest(total.size());
+  for (int g = 0; g < groups; ++g) {
+    for (std::size_t k = 0; k < total.size(); ++k) rest[k] = total[k] - group_power[g][k];
+    k_without[g] = RefineFundamental(rest, spectrum, k0, min_excess);
+  }
+  double mean = 0.0;
+  for (double k : k_without) mean += k / groups;
+  double var = 0.0;
+  for (double k : k_without) var += (k - mean) * (k - mean);
+  const double k_se = std::sqrt(var * (groups - 1) / groups);
+  const double pitch_samples = size / k_peak;
+  result.pitches_in_arc = n / pitch_samples;
+  if (result.pitches_in_arc < options.min_pitches) {
+    result.reason = absl::StrFormat(
+        "the lit arc holds only %.1f pitches of the thread glints' lattice, %.0f needed",
+        result.pitches_in_arc, options.min_pitches);
+    return result;
+  }
+  result.coherence = RowCoherence(windowed, k_peak / size);
+  result.found = true;
+  result.pitch_mm = pitch_samples * step_mm;
+  result.pitch_stderr_mm = result.pitch_mm * k_se / k_peak;
+  return result;
+}
+
+}  // namespace weavefit

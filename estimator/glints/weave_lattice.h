@@ -1,0 +1,91 @@
+// The axial threads' pitch from the lattice of their glints over the whole
+// lit surface (DESIGN.md §3). Threads running along the axis glint as short
+// lines wherever they pass over the circumferential threads, one every
+// axial pitch of arc, from limb to terminator, not only inside the lobe; in a
+// plain weave the undulation period λ is twice that pitch. One row holds
+// dozens of them where the lobe holds a period or two, so the pitch is the
+// robust first word on the period: the comb fit (glints/comb_fit.h), started
+// from twice it, says the last.
+//
+// The estimate is the art conservators' thread count from X-radiographs
+// (Johnson, Johnson and Erdmann 2013, DESIGN.md §3) on the rectified
+// surface: each row along the arc, its smooth shading taken out and clamped
+// to a few noise sigmas so that a lobe's bright glints weigh no more than the
+// faint lines, is windowed, and the rows' power spectra are summed (the weave
+// phase wanders from row to row, so their spectra add where their signals
+// would cancel). The lines' fundamental is the strongest peak in the band of
+// resolvable pitches; its standard error is the jackknife's over groups of
+// rows.
+#ifndef WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
+#define WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
+
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "estimator/profile/arc_signals.h"
+
+namespace weavefit {
+
+struct AxialPitchOptions {
+  // Shortest pitch looked for, in pixels at the axis: half the 4 px per
+  // period below which the period is unresolved (DESIGN.md §3).
+  double min_px_per_pitch = 2.0;
+  // The analysed arc must hold at least this many pitches. A lattice's
+  // half frequency (the weave's period, when every other line differs) must
+  // stand clear of a Hann window's zero-frequency lobe, which reaches 2
+  // cycles per arc and carries the body's shading: with 6 lines in view it
+  // lies a cycle beyond it; with 4, inside it, where shading and the
+  // lattice's half cannot be told apart.
+  double min_pitches = 6.0;
+  // Each row's deviation from its shading is clamped to this many noise
+  // sigmas: a glint line stands far above it, so lines of any brightness
+  // weigh alike and a clipped lobe does not drown them, while noise keeps
+  // its flat spectrum.
+  double clamp_sigmas = 5.0;
+  // The lattice's fundamental must stand this many times above the band's
+  // median power. Summed over N rows, noise's power scatters by about 1/√N
+  // of its mean, so a factor of 2 is already beyond noise; a lobe's glints
+  // leaking beside it or the texture of stray light make weak structure, up
+  // to 9 times the floor where too few lines were in view to be counted,
+  // while a woven surface's lines over a few dozen rows stand 40 to 600
+  // times above it.
+  double min_contrast = 20.0;
+  // Groups of rows for the jackknife error.
+  int jackknife_groups = 8;
+
+  absl::Status Validate() const;
+};
+
+struct AxialPitch {
+  bool found = false;
+  double pitch_mm = 0.0;         // arc length between neighbouring lines
+  double pitch_stderr_mm = 0.0;  // jackknife over groups of rows
+  double contrast = 0.0;         // the peak's power over the band's median
+  // The same at half the fundamental frequency: at least min_contrast when
+  // every other line differs, so that the lattice's true period may be
+  // twice the pitch found.
+  double half_contrast = 0.0;
+  // How much of the lattice's power survives averaging the rows (0-1):
+  // high when its lines stand at the same azimuths from row to row, as the
+  // lines of threads running along the axis do; near 0 for a checkerboard
+  // (a plain weave's floats seen as patches, neighbouring threads half a
+  // period out of step), whose period along a row is λ itself.
+  double coherence = 0.0;
+  double pitches_in_arc = 0.0;   // how many pitches the analysed arc holds
+  int rows_used = 0;
+  std::string reason;            // why none was found (empty when found)
+};
+
+// `arcs` are stretches of the lit surface on one azimuth step (the lobe's
+// circumferential glints, which repeat with λ and not with the pitch, left
+// out between them), `step_px` that step in pixels at the axis and
+// `pixel_noise` one pixel's noise sigma in the signals' units.
+absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arcs,
+                                              double step_px, double pixel_noise,
+                                              const AxialPitchOptions& options);
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_

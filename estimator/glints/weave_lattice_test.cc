@@ -1,0 +1,165 @@
+// Unit tests of glints/weave_lattice: the axial threads' pitch from the
+// lattice of their glint lines, on synthetic arc signals with exactly known
+// lines (each row its own weave phase, noise, shading), and through the
+// whole pipeline on renders whose axial threads glint one by one.
+#include "estimator/glints/weave_lattice.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "estimator/pipeline/estimate.h"
+#include "estimator/render/render.h"
+
+namespace weavefit {
+namespace {
+
+// Arc signals of `rows` rows over `samples` samples of 0.05 mm (half a
+// pixel of 0.1 mm): a glint line of `height` and 3 samples' width every
+// `pitch_mm`, each row shifted by its own random phase, on a shading that
+// rises across the arc (a Lambertian body), with Gaussian noise of `noise`.
+// When `alternate` > 0, every other line is that many times brighter (one
+// family of crossings clipped, the other faint).
+ArcSignals Lines(double pitch_mm, int rows, int samples, double height, double noise,
+                 double alternate = 0.0, std::uint32_t seed = 3) {
+  ArcSignals s;
+  s.radius_mm = 23.0;
+  s.step_rad = 0.05 / s.radius_mm;
+  s.first_azimuth_rad = -0.5 * samples * s.step_rad;
+  s.num_samples = samples;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> phase(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, noise);
+  for (int r = 0; r < rows; ++r) {
+    s.rows.push_back(10 + r);
+    const double c = phase(rng) * pitch_mm;
+    for (int k = 0; k < samples; ++k) {
+      const double x = k * 0.05;
+      const double shading = 0.02 + 0.03 * k / samples;
+      const double cycles = (x - c) / pitch_mm;
+      const double frac = cycles - std::floor(cycles);
+      const double d = std::min(frac, 1.0 - frac) * pitch_mm;  // mm to the nearest line
+      const bool odd = (static_cast<long>(std::floor(cycles + 0.5)) & 1) != 0;
+      const double h = height * (alternate > 0.0 && odd ? alternate : 1.0);
+      s.values.push_back(static_cast<float>(shading + (d < 0.075 ? h : 0.0) + gauss(rng)));
+      s.valid.push_back(1);
+    }
+  }
+  return s;
+}
+
+constexpr double kStepPx = 0.5;
+
+TEST(AxialPitchTest, LinesOnAShadedBodyGiveTheirPitch) {
+  const double pitch = 0.83;
+  absl::StatusOr<AxialPitch> p =
+      EstimateAxialPitch({Lines(pitch, 48, 3000, 0.05, 0.002)}, kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->found) << p->reason;
+  EXPECT_NEAR(p->pitch_mm, pitch, 0.002 * pitch);
+  EXPECT_GT(p->pitch_stderr_mm, 0.0);
+  EXPECT_LE(std::fabs(p->pitch_mm - pitch), 3.0 * p->pitch_stderr_mm + 1e-4 * pitch);
+  EXPECT_NEAR(p->pitches_in_arc, 3000 * 0.05 / pitch, 1.0);
+  EXPECT_EQ(p->rows_used, 48);
+}
+
+// Every harmonic of a lattice of narrow lines is about as strong as its
+// fundamental, and folded at twice the pitch the lattice keeps them all: the
+// pitch is the shortest whose harmonics hold the lattice.
+TEST(AxialPitchTest, NarrowLinesGiveTheirPitchNotAHarmonicOrTwiceIt) {
+  for (double pitch : {0.4, 1.1, 2.3}) {
+    absl::StatusOr<AxialPitch> p =
+        EstimateAxialPitch({Lines(pitch, 32, 4000, 0.2, 0.002)}, kStepPx, 0.002, {});
+    ASSERT_TRUE(p.ok()) << p.status();
+    ASSERT_TRUE(p->found) << pitch << ": " << p->reason;
+    EXPECT_NEAR(p->pitch_mm, pitch, 0.005 * pitch) << pitch;
+  }
+}
+
+// One family of crossings glinting ten times brighter than the other (one
+// clipped, one faint) is still one lattice at the pitch: each row is clamped
+// to a few noise sigmas, so both weigh alike.
+TEST(AxialPitchTest, LinesOfAlternatingBrightnessGiveThePitch) {
+  const double pitch = 0.9;
+  absl::StatusOr<AxialPitch> p =
+      EstimateAxialPitch({Lines(pitch, 32, 3000, 0.03, 0.002, 10.0)}, kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->found) << p->reason;
+  EXPECT_NEAR(p->pitch_mm, pitch, 0.005 * pitch);
+}
+
+// Stretches of arc on either side of the lobe add their spectra.
+TEST(AxialPitchTest, TwoArcsBesideTheLobeAddUp) {
+  const double pitch = 0.7;
+  absl::StatusOr<AxialPitch> p = EstimateAxialPitch(
+      {Lines(pitch, 24, 900, 0.05, 0.002, 0.0, 1), Lines(pitch, 24, 1500, 0.05, 0.002, 0.0, 2)},
+      kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->found) << p->reason;
+  EXPECT_NEAR(p->pitch_mm, pitch, 0.005 * pitch);
+  EXPECT_EQ(p->rows_used, 48);
+}
+
+TEST(AxialPitchTest, NoiseAloneHasNoLattice) {
+  absl::StatusOr<AxialPitch> p =
+      EstimateAxialPitch({Lines(1.0, 48, 3000, 0.0, 0.002)}, kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_FALSE(p->found);
+  EXPECT_NE(p->reason.find("no lattice"), std::string::npos) << p->reason;
+}
+
+TEST(AxialPitchTest, TooFewLinesInViewAreNotCounted) {
+  // 2.5 lines over the arc.
+  absl::StatusOr<AxialPitch> p =
+      EstimateAxialPitch({Lines(2.0, 48, 100, 0.05, 0.002)}, kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_FALSE(p->found);
+  EXPECT_FALSE(p->reason.empty());
+}
+
+TEST(AxialPitchTest, BadOptionsAreRefused) {
+  AxialPitchOptions options;
+  options.min_contrast = 1.0;
+  EXPECT_EQ(EstimateAxialPitch({Lines(1.0, 4, 500, 0.05, 0.002)}, kStepPx, 0.002, options)
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(EstimateAxialPitch({Lines(1.0, 4, 500, 0.05, 0.002)}, 0.0, 0.002, {}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+// A sawtooth mirrors only at its two caustics, so its circumferential
+// glints do not repeat along the arc; its axial threads' lines do, and give
+// the wavelength (twice their pitch in a plain weave) with an honest error.
+TEST(AxialPitchTest, ASawtoothsWavelengthComesFromItsAxialThreads) {
+  RenderScene scene;
+  scene.width_px = 640;
+  scene.height_px = 400;
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 2.4;
+  scene.amplitude_mm = 0.12;  // m = 0.2
+  scene.phase_angle_deg = -30.0;
+  scene.axial_glint_width = 0.15;
+  scene.stray_light = 0.005;
+  scene.seed = 11;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = scene.phase_angle_deg * M_PI / 180.0;
+  acquisition.cylinder_diameter_mm = scene.diameter_mm;
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, acquisition, {});
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSawtooth);
+  ASSERT_TRUE(e->wavelength_mm.resolved);
+  EXPECT_LE(std::fabs(e->wavelength_mm.value - scene.wavelength_mm),
+            3.0 * e->wavelength_mm.stderr_value);
+  EXPECT_NEAR(e->wavelength_mm.value, scene.wavelength_mm, 0.01 * scene.wavelength_mm);
+  ASSERT_TRUE(e->amplitude_mm.resolved);
+  EXPECT_LE(std::fabs(e->amplitude_mm.value - scene.amplitude_mm),
+            3.0 * e->amplitude_mm.stderr_value);
+}
+
+}  // namespace
+}  // namespace weavefit
