@@ -51,7 +51,8 @@ std::vector<double> RowShading(const float* v, int n) {
 // One row's deviation from its shading in noise sigmas, clamped (a clipped
 // sample counts as a glint), under a Hann window. (Each arc is its own
 // window: its lines' phase is unrelated to another arc's across the lobe.)
-std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise, double clamp) {
+std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise, double clamp,
+                               int* above, int* below) {
   const int n = signals.num_samples;
   const float* v = signals.Row(row);
   const std::uint8_t* ok = &signals.valid[static_cast<std::size_t>(row) * n];
@@ -59,6 +60,8 @@ std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise,
   std::vector<float> x(n);
   for (int k = 0; k < n; ++k) {
     const double z = ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp) : clamp;
+    *above += z >= clamp;
+    *below += z <= -clamp;
     const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / n);
     x[k] = static_cast<float>(z * hann);
   }
@@ -79,26 +82,42 @@ std::vector<double> PowerOf(const std::vector<float>& row, int size) {
   return power;
 }
 
-// How much of the rows' power at `cycles` per sample survives averaging the
-// rows: 1 when their lines stand at the same azimuths in every row (threads
-// along the axis), about 1/rows when each row has its own phase, near 0 for
-// a checkerboard. Arcs' sums add as powers.
-double RowCoherence(const std::vector<std::vector<std::vector<float>>>& arcs, double cycles) {
-  double coherent = 0.0;
+// How much of the lattice's power at `cycles` per sample lies in lines that
+// stand at the same azimuths from row to row: each row's amplitude at that
+// frequency, transformed along the rows (in image order), and the share of
+// that power within ±kAlignedBins of zero frequency along the axis. Lines
+// of threads running along the axis (wandering slowly) keep it near 1; a
+// plain weave's circumferential relief, neighbouring threads half a period
+// out of step, puts it at the threads' frequency along the axis; rows of
+// unrelated phase spread it evenly. Arcs' powers add.
+constexpr int kAlignedBins = 2;
+
+double AlignedShare(const std::vector<std::vector<std::vector<float>>>& arcs, double cycles) {
+  double near = 0.0;
   double total = 0.0;
   for (const std::vector<std::vector<float>>& rows : arcs) {
-    std::complex<double> sum = 0.0;
-    double power = 0.0;
-    for (const std::vector<float>& x : rows) {
+    if (rows.size() < 8) continue;
+    const int size = cv::getOptimalDFTSize(static_cast<int>(rows.size()));
+    cv::Mat amplitude = cv::Mat::zeros(1, size, CV_64FC2);
+    for (std::size_t r = 0; r < rows.size(); ++r) {
       std::complex<double> at = 0.0;
-      for (std::size_t k = 0; k < x.size(); ++k) at += double(x[k]) * std::polar(1.0, -2.0 * M_PI * cycles * k);
-      sum += at;
-      power += std::norm(at);
+      const std::vector<float>& x = rows[r];
+      for (std::size_t k = 0; k < x.size(); ++k) {
+        at += double(x[k]) * std::polar(1.0, -2.0 * M_PI * cycles * k);
+      }
+      amplitude.at<cv::Vec2d>(0, static_cast<int>(r)) = {at.real(), at.imag()};
     }
-    coherent += std::norm(sum);
-    total += power * rows.size();
+    cv::Mat along;
+    cv::dft(amplitude, along, cv::DFT_COMPLEX_OUTPUT);
+    const double reach = kAlignedBins * static_cast<double>(size) / rows.size();
+    for (int j = 0; j < size; ++j) {
+      const cv::Vec2d c = along.at<cv::Vec2d>(0, j);
+      const double power = c[0] * c[0] + c[1] * c[1];
+      total += power;
+      if (std::min(j, size - j) <= reach) near += power;
+    }
   }
-  return total > 0.0 ? coherent / total : 0.0;
+  return total > 0.0 ? near / total : 0.0;
 }
 
 // The local maximum of `power` nearest `k` within ±reach bins, refined by a
@@ -243,11 +262,14 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
   // Noise of a sample interpolated between pixels is at most one pixel's.
   const double noise = std::max(pixel_noise, 1e-9);
   int count = 0;
+  int above = 0;  // samples clamped high and low
+  int below = 0;
   std::vector<std::vector<std::vector<float>>> windowed;
   for (const ArcSignals& a : arcs) {
     windowed.emplace_back();
     for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
-      windowed.back().push_back(WindowedRow(a, static_cast<int>(i), noise, options.clamp_sigmas));
+      windowed.back().push_back(
+          WindowedRow(a, static_cast<int>(i), noise, options.clamp_sigmas, &above, &below));
       const std::vector<double> p = PowerOf(windowed.back().back(), size);
       std::vector<double>& g = group_power[count % groups];
       for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
@@ -273,6 +295,7 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
         result.contrast, options.min_contrast);
     return result;
   }
+  result.rise_share = above + below > 0 ? static_cast<double>(above) / (above + below) : 0.5;
   result.half_contrast = spectrum.Near(0.5 * k0) + 1.0;
   const double min_excess = options.min_contrast - 1.0;
   const double k_peak = RefineFundamental(total, spectrum, k0, min_excess);
@@ -296,7 +319,7 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
         result.pitches_in_arc, options.min_pitches);
     return result;
   }
-  result.coherence = RowCoherence(windowed, k_peak / size);
+  result.aligned = AlignedShare(windowed, k_peak / size);
   result.found = true;
   result.pitch_mm = pitch_samples * step_mm;
   result.pitch_stderr_mm = result.pitch_mm * k_se / k_peak;

@@ -63,16 +63,19 @@ struct AxialPitch {
   double pitch_mm = 0.0;         // arc length between neighbouring lines
   double pitch_stderr_mm = 0.0;  // jackknife over groups of rows
   double contrast = 0.0;         // the peak's power over the band's median
-  // The same at half the fundamental frequency: at least min_contrast when
-  // every other line differs, so that the lattice's true period may be
-  // twice the pitch found.
+  // The same at half the fundamental frequency.
   double half_contrast = 0.0;
-  // How much of the lattice's power survives averaging the rows (0-1):
-  // high when its lines stand at the same azimuths from row to row, as the
-  // lines of threads running along the axis do; near 0 for a checkerboard
-  // (a plain weave's floats seen as patches, neighbouring threads half a
-  // period out of step), whose period along a row is λ itself.
-  double coherence = 0.0;
+  // The share of the lattice's power in lines at the same azimuths from
+  // row to row (0-1; the arcs' rows must be in image order and evenly
+  // spaced): near 1 for threads running along the axis; low for a plain
+  // weave's circumferential relief, whose neighbouring threads are half a
+  // period out of step and whose period along a row is λ itself.
+  double aligned = 0.0;
+  // Of the samples standing clamp_sigmas off their row's shading, the share
+  // above it: near 1 for glint lines, bright on the body and nothing
+  // darker; near one half for a relief's shading under stray light, which
+  // dips as far as it rises and repeats with the weave's period λ itself.
+  double rise_share = 0.0;
   double pitches_in_arc = 0.0;   // how many pitches the analysed arc holds
   int rows_used = 0;
   std::string reason;            // why none was found (empty when found)

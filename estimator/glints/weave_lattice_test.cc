@@ -22,8 +22,10 @@ namespace {
 // rises across the arc (a Lambertian body), with Gaussian noise of `noise`.
 // When `alternate` > 0, every other line is that many times brighter (one
 // family of crossings clipped, the other faint).
+// With `stagger` >= 0, the rows are not of random phase: row r is shifted
+// by r·stagger pitches (0: lines along the axis; 0.5: a checkerboard).
 ArcSignals Lines(double pitch_mm, int rows, int samples, double height, double noise,
-                 double alternate = 0.0, std::uint32_t seed = 3) {
+                 double alternate = 0.0, std::uint32_t seed = 3, double stagger = -1.0) {
   ArcSignals s;
   s.radius_mm = 23.0;
   s.step_rad = 0.05 / s.radius_mm;
@@ -34,7 +36,7 @@ ArcSignals Lines(double pitch_mm, int rows, int samples, double height, double n
   std::normal_distribution<double> gauss(0.0, noise);
   for (int r = 0; r < rows; ++r) {
     s.rows.push_back(10 + r);
-    const double c = phase(rng) * pitch_mm;
+    const double c = (stagger >= 0.0 ? r * stagger : phase(rng)) * pitch_mm;
     for (int k = 0; k < samples; ++k) {
       const double x = k * 0.05;
       const double shading = 0.02 + 0.03 * k / samples;
@@ -102,6 +104,25 @@ TEST(AxialPitchTest, TwoArcsBesideTheLobeAddUp) {
   EXPECT_EQ(p->rows_used, 48);
 }
 
+// Lines at the same azimuths in every row are threads running along the
+// axis; a checkerboard (neighbouring rows half a period out of step) is a
+// plain weave's relief, and rows of unrelated phase are neither.
+TEST(AxialPitchTest, LinesAlongTheAxisAreToldFromACheckerboard) {
+  const double pitch = 0.9;
+  absl::StatusOr<AxialPitch> along =
+      EstimateAxialPitch({Lines(pitch, 64, 3000, 0.05, 0.002, 0.0, 4, 0.0)}, kStepPx, 0.002, {});
+  absl::StatusOr<AxialPitch> checker =
+      EstimateAxialPitch({Lines(pitch, 64, 3000, 0.05, 0.002, 0.0, 4, 0.5)}, kStepPx, 0.002, {});
+  absl::StatusOr<AxialPitch> unrelated =
+      EstimateAxialPitch({Lines(pitch, 64, 3000, 0.05, 0.002, 0.0, 4)}, kStepPx, 0.002, {});
+  ASSERT_TRUE(along.ok() && checker.ok() && unrelated.ok());
+  ASSERT_TRUE(along->found && checker->found && unrelated->found);
+  EXPECT_GT(along->aligned, 0.9);
+  EXPECT_LT(checker->aligned, 0.02);
+  EXPECT_LT(unrelated->aligned, 0.2);
+  EXPECT_NEAR(checker->pitch_mm, pitch, 0.005 * pitch);
+}
+
 TEST(AxialPitchTest, NoiseAloneHasNoLattice) {
   absl::StatusOr<AxialPitch> p =
       EstimateAxialPitch({Lines(1.0, 48, 3000, 0.0, 0.002)}, kStepPx, 0.002, {});
@@ -142,7 +163,8 @@ TEST(AxialPitchTest, ASawtoothsWavelengthComesFromItsAxialThreads) {
   scene.amplitude_mm = 0.12;  // m = 0.2
   scene.phase_angle_deg = -30.0;
   scene.axial_glint_width = 0.15;
-  scene.stray_light = 0.005;
+  scene.axial_float_width = 0.3;  // a plain weave's floats
+  scene.stray_light = 0.02;
   scene.seed = 11;
   absl::StatusOr<Rendered> r = RenderPhotograph(scene);
   ASSERT_TRUE(r.ok()) << r.status();

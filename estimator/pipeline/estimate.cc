@@ -426,8 +426,11 @@ constexpr double kCombMaxExtraPsfPx = 1.5;
 constexpr double kLatticeMaxAzimuth = 60.0 * kDeg;
 // ... and where the direct light falls at least 10° above grazing.
 constexpr double kLatticeLitReach = 80.0 * kDeg;
-// Rows taken along each stretch of arc (those whose pixels vary most).
-constexpr int kLatticeRows = 64;
+// Rows taken along each stretch of arc: at most kLatticeRows, evenly spaced
+// over a band of at most kLatticeBandRows about the cylinder's middle (the
+// band must span several threads for AlignedShare).
+constexpr int kLatticeRows = 128;
+constexpr int kLatticeBandRows = 384;
 // The relative difference allowed between twice the axial threads' pitch
 // and the undulation period the circumferential glints repeat with. In an
 // ideal plain weave they are equal; on photographs from an independent
@@ -440,6 +443,16 @@ constexpr double kAxialPitchMismatch = 0.02;
 // How far a comb fit started from twice the axial pitch may end from it
 // and still stand on the lattice's evidence: the mismatch and a half.
 constexpr double kLatticeCombReach = 1.5 * kAxialPitchMismatch;
+
+// Whether a lattice is the lines of threads running along the axis, λ/2
+// apart: most of its power in lines at the same azimuths from row to row.
+// A plain weave's circumferential relief (under stray light, say), whose
+// neighbouring threads are half a period out of step, repeats along a row
+// with λ itself and keeps a share near what unrelated rows give (about 5 in
+// 128 rows); threads along the axis, wandering, keep a third or more.
+constexpr double kMinAlignedShare = 0.1;
+
+bool LinesAlongTheAxis(const AxialPitch& pitch) { return pitch.aligned >= kMinAlignedShare; }
 // The most power at half the lattice's frequency, relative to its own, for
 // the lattice alone to give the period (EstimateWavelength).
 constexpr double kLatticeMaxHalf = 0.25;
@@ -462,17 +475,29 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
   const double lo = std::max(phase_angle_rad - kLatticeLitReach, -limit);
   const double hi = std::min(phase_angle_rad + kLatticeLitReach, limit);
   const ArcSignalOptions lobe = WideArcRange(peaks, projection);
+  // Evenly spaced rows of a band about the cylinder's middle, in image order
+  // (AlignedShare transforms along them).
+  std::vector<int> band;
+  const int usable = cylinder.bottom_row - cylinder.top_row + 1;
+  const int span = std::min(usable, kLatticeBandRows);
+  const int stride = std::max(1, span / kLatticeRows);
+  const int first = cylinder.top_row + (usable - span) / 2;
+  for (int y = first; y < first + span; y += stride) band.push_back(y);
   auto arc = [&](double from, double to) -> std::optional<ArcSignals> {
     if (!(to - from > kDeg)) return std::nullopt;
     ArcSignalOptions o;
     o.from_rad = from;
     o.to_rad = to;
-    o.max_rows = kLatticeRows;
+    o.rows = band;
     absl::StatusOr<ArcSignals> s = ExtractArcSignals(luminance, cylinder, projection, o);
     return s.ok() ? std::optional<ArcSignals>(*std::move(s)) : std::nullopt;
   };
   auto read = [&](const std::vector<ArcSignals>& arcs) {
     AxialPitch none;
+    none.reason = absl::StrFormat(
+        "no stretch of the lit surface within %.0f deg of the line of sight to count glint lines "
+        "along",
+        kLatticeMaxAzimuth / kDeg);
     if (arcs.empty()) return none;
     absl::StatusOr<AxialPitch> p = EstimateAxialPitch(
         arcs, arcs[0].StepMm() / model.mm_per_px, model.pixel_noise, options);
@@ -490,7 +515,7 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
     std::vector<ArcSignals> whole;
     if (std::optional<ArcSignals> s = arc(lo, hi)) whole.push_back(*std::move(s));
     const AxialPitch p = read(whole);
-    if (p.found) reading.pitch = p;
+    if (p.found || beside.empty()) reading.pitch = p;
   }
   return reading;
 }
@@ -579,6 +604,31 @@ std::optional<CombFitResult> CombFitter::First(const std::vector<double>& starts
     }
   }
   return std::nullopt;
+}
+
+// What the lattice of glint lines said, for a wavelength left unresolved.
+std::string LatticeWords(const LatticeReading& lattice) {
+  const AxialPitch& p = lattice.pitch;
+  if (!p.found) return p.reason;
+  if (!lattice.beside_lobe) {
+    return absl::StrFormat(
+        "glint lines %.3f mm apart were seen only across the lobe, whose glints may make that "
+        "spacing the period itself, and the comb of glints confirmed neither it nor twice it",
+        p.pitch_mm);
+  }
+  if (!LinesAlongTheAxis(p)) {
+    return absl::StrFormat(
+        "beside the lobe a pattern repeats every %.3f mm, but not in lines along the axis (%.0f%% "
+        "of its power in them): a plain weave's relief, whose neighbouring threads are half a "
+        "period out of step, may repeat with the period itself, and the comb of glints "
+        "confirmed neither it nor twice it",
+        p.pitch_mm, 100.0 * p.aligned);
+  }
+  return absl::StrFormat(
+      "beside the lobe glint lines stand %.3f mm apart, but a pattern at twice that spacing is "
+      "%.0f%% as strong, so the lines may be a harmonic of a coarser pattern, and the comb of "
+      "glints confirmed neither twice nor once their spacing",
+      p.pitch_mm, 100.0 * p.half_contrast / p.contrast);
 }
 
 // Without the axial threads' lines: the glints counted along the lobe's
@@ -727,21 +777,22 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     // the false optima min_explained guards against (a period a quarter
     // off); it need only explain what the axial lines, which it does not
     // model, leave in its rows (min_explained_by_lattice).
-    std::vector<double> starts = {2.0 * lattice.pitch.pitch_mm};
-    if (!lattice.beside_lobe) starts.push_back(lattice.pitch.pitch_mm);
+    std::vector<double> starts = {2.0 * lattice.pitch.pitch_mm, lattice.pitch.pitch_mm};
+    if (!LinesAlongTheAxis(lattice.pitch)) std::swap(starts[0], starts[1]);
+    if (lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch)) starts.pop_back();
     best = comb->First(starts,
                        sawtooth_read ? options.comb.min_explained_alone
                                      : options.comb.min_explained_by_lattice,
                        kLatticeCombReach);
   }
-  // The lattice alone gives the period when it was read clear of the lobe
-  // and its lines dominate it: at half their frequency a weave may show its
-  // period λ (the circumferential threads' shading under stray light), but
-  // weaker; as strong a half says the peak found may be a harmonic of a
-  // coarser pattern (a plain weave's floats seen as a checkerboard, whose
-  // period along a row is λ), and then nothing says which is the pitch.
+  // The lattice alone gives the period when it was read clear of the lobe,
+  // is made of lines along the axis (the axial threads, λ/2 apart) and
+  // they dominate it: at half their frequency a weave may show its period λ
+  // (the circumferential threads' relief under stray light), but weaker; as
+  // strong a half says the peak found may be a harmonic of a coarser
+  // pattern, and then nothing says which is the pitch.
   const bool lattice_alone =
-      lattice.pitch.found && lattice.beside_lobe &&
+      lattice.pitch.found && lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch) &&
       lattice.pitch.half_contrast < kLatticeMaxHalf * lattice.pitch.contrast;
   std::string period_failure;
   if (!best && !lattice_alone) {
@@ -764,10 +815,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     ApplyLatticePeriod(lattice.pitch, cylinder, acquisition, comb_failure, estimate);
     return;
   }
-  estimate->warnings.push_back(absl::StrCat(
-      "wavelength and amplitude unresolved: ",
-      !lattice.pitch.reason.empty() ? absl::StrCat(lattice.pitch.reason, "; ") : "",
-      period_failure));
+  estimate->warnings.push_back(absl::StrCat("wavelength and amplitude unresolved: ",
+                                            LatticeWords(lattice), "; ", period_failure));
 }
 
 // The least-squares fits overturn peak picking's split model only past
