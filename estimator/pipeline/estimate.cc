@@ -440,8 +440,8 @@ constexpr int kLatticeBandRows = 384;
 // period from the lines alone counts it as a systematic error common to
 // every photograph of the sample.
 constexpr double kAxialPitchMismatch = 0.02;
-// How far a comb fit started from twice the axial pitch may end from it
-// and still stand on the lattice's evidence: the mismatch and a half.
+// How far a comb fit started from the lattice may end from its start and
+// still stand on the lattice's evidence: the mismatch and a half.
 constexpr double kLatticeCombReach = 1.5 * kAxialPitchMismatch;
 
 // Whether a lattice is the lines of threads running along the axis, λ/2
@@ -672,8 +672,8 @@ std::optional<CombFitResult> WavelengthFromGlintCount(
   if (sawtooth_read) {
     *why = sawtooth_unresolved;
   } else if (!period->resolved) {
-    *why = absl::StrCat(period->reason, failure.empty() ? "" : "; the comb fit does not confirm it: ",
-                        failure);
+    *why = absl::StrCat(period->reason,
+                        failure.empty() ? "" : "; the comb fit does not confirm it: ", failure);
   } else {
     // A period the glint count calls but the comb fit, the model of the
     // glints row by row, does not confirm is not reported: on photographs
@@ -770,13 +770,16 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   }
   std::optional<CombFitResult> best;
   if (comb && lattice.pitch.found) {
-    // A plain weave's period is twice the axial pitch; over the whole lit
-    // surface the lobe's glints may have made the lattice's fundamental λ.
-    // A comb that lands within kLatticeCombReach of twice the pitch has a
-    // second, independent measurement behind its period, which rules out
-    // the false optima min_explained guards against (a period a quarter
-    // off); it need only explain what the axial lines, which it does not
-    // model, leave in its rows (min_explained_by_lattice).
+    // Lines along the axis are the axial threads, λ/2 apart: the comb starts
+    // from twice their spacing (and, read across the lobe, whose glints may
+    // have made the lattice's fundamental λ, from the spacing too). A lattice
+    // not in lines along the axis is a plain weave's relief, which repeats
+    // with λ: its spacing first, then twice it. A comb that lands within
+    // kLatticeCombReach of its start has a second, independent measurement
+    // behind its period, which rules out the false optima min_explained
+    // guards against (a period a quarter off); it need only explain what the
+    // axial lines, which it does not model, leave in its rows
+    // (min_explained_by_lattice).
     std::vector<double> starts = {2.0 * lattice.pitch.pitch_mm, lattice.pitch.pitch_mm};
     if (!LinesAlongTheAxis(lattice.pitch)) std::swap(starts[0], starts[1]);
     if (lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch)) starts.pop_back();
@@ -810,7 +813,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     }
     return;
   }
-  const std::string comb_failure = comb ? comb->failure() : std::string(wide_signals.status().message());
+  const std::string comb_failure =
+      comb ? comb->failure() : std::string(wide_signals.status().message());
   if (lattice_alone) {
     ApplyLatticePeriod(lattice.pitch, cylinder, acquisition, comb_failure, estimate);
     return;
