@@ -480,10 +480,9 @@ absl::Status CombFitOptions::Validate() const {
   if (max_iterations < 1 || polish_iterations < 1) {
     return absl::InvalidArgumentError("max_iterations and polish_iterations must be >= 1");
   }
-  if (!(min_explained_by_lattice > 0.0 && min_explained_by_lattice <= min_explained &&
-        min_explained <= min_explained_alone && min_explained_alone < 1.0)) {
+  if (!(min_explained > 0.0 && min_explained <= min_explained_alone && min_explained_alone < 1.0)) {
     return absl::InvalidArgumentError(
-        "need 0 < min_explained_by_lattice <= min_explained <= min_explained_alone < 1");
+        "need 0 < min_explained <= min_explained_alone < 1");
   }
   if (!(slope_floor >= 0.0) || !(wavelength_floor >= 0.0) || !(mirror_floor_rad >= 0.0) ||
       !(slope_mismatch >= 0.0) || !(wavelength_mismatch >= 0.0) ||

@@ -53,12 +53,6 @@ struct CombFitOptions {
   // 4.6 stated errors off.
   double min_explained = 0.8;
   double min_explained_alone = 0.9;
-  // A period that twice the axial threads' pitch confirms independently
-  // (glints/weave_lattice.h) needs only this share: the rows also carry
-  // the axial lines, which the comb does not model (on independently
-  // rendered photographs the comb explained 0.78-0.96 of such rows at the
-  // period the lattice confirmed).
-  double min_explained_by_lattice = 0.7;
   // Relative errors always counted for what the model leaves out (a real
   // thread is no exact sinusoid; pixels are not exact boxes). The radius's
   // error, which scales both, is counted apart (ApplyCombFit). They are
