@@ -51,8 +51,7 @@ std::vector<double> RowShading(const float* v, int n) {
 // One row's deviation from its shading in noise sigmas, clamped (a clipped
 // sample counts as a glint), under a Hann window. (Each arc is its own
 // window: its lines' phase is unrelated to another arc's across the lobe.)
-std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise, double clamp,
-                               int* above, int* below) {
+std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise, double clamp) {
   const int n = signals.num_samples;
   const float* v = signals.Row(row);
   const std::uint8_t* ok = &signals.valid[static_cast<std::size_t>(row) * n];
@@ -60,8 +59,6 @@ std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise,
   std::vector<float> x(n);
   for (int k = 0; k < n; ++k) {
     const double z = ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp) : clamp;
-    *above += z >= clamp;
-    *below += z <= -clamp;
     const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / n);
     x[k] = static_cast<float>(z * hann);
   }
@@ -262,14 +259,11 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
   // Noise of a sample interpolated between pixels is at most one pixel's.
   const double noise = std::max(pixel_noise, 1e-9);
   int count = 0;
-  int above = 0;  // samples clamped high and low
-  int below = 0;
   std::vector<std::vector<std::vector<float>>> windowed;
   for (const ArcSignals& a : arcs) {
     windowed.emplace_back();
     for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
-      windowed.back().push_back(
-          WindowedRow(a, static_cast<int>(i), noise, options.clamp_sigmas, &above, &below));
+      windowed.back().push_back(WindowedRow(a, static_cast<int>(i), noise, options.clamp_sigmas));
       const std::vector<double> p = PowerOf(windowed.back().back(), size);
       std::vector<double>& g = group_power[count % groups];
       for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
@@ -295,7 +289,6 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
         result.contrast, options.min_contrast);
     return result;
   }
-  result.rise_share = above + below > 0 ? static_cast<double>(above) / (above + below) : 0.5;
   result.half_contrast = spectrum.Near(0.5 * k0) + 1.0;
   const double min_excess = options.min_contrast - 1.0;
   const double k_peak = RefineFundamental(total, spectrum, k0, min_excess);

@@ -13,9 +13,12 @@
 // to a few noise sigmas so that a lobe's bright glints weigh no more than the
 // faint lines, is windowed, and the rows' power spectra are summed (the weave
 // phase wanders from row to row, so their spectra add where their signals
-// would cancel). The lines' fundamental is the strongest peak in the band of
-// resolvable pitches; its standard error is the jackknife's over groups of
-// rows.
+// would cancel). The lattice's fundamental is the shortest pitch whose
+// harmonics hold most of it (narrow lines have harmonics as strong as their
+// fundamental), refined from every harmonic that stands out; its standard
+// error is the jackknife's over groups of rows. Whether the lattice is lines
+// along the axis at all, and not a plain weave's relief repeating with λ
+// itself, is measured across the rows (AxialPitch::aligned).
 #ifndef WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 #define WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 
@@ -71,11 +74,6 @@ struct AxialPitch {
   // weave's circumferential relief, whose neighbouring threads are half a
   // period out of step and whose period along a row is λ itself.
   double aligned = 0.0;
-  // Of the samples standing clamp_sigmas off their row's shading, the share
-  // above it: near 1 for glint lines, bright on the body and nothing
-  // darker; near one half for a relief's shading under stray light, which
-  // dips as far as it rises and repeats with the weave's period λ itself.
-  double rise_share = 0.0;
   double pitches_in_arc = 0.0;   // how many pitches the analysed arc holds
   int rows_used = 0;
   std::string reason;            // why none was found (empty when found)
