@@ -471,6 +471,13 @@ constexpr double kLatticeCombReach = 1.5 * kAxialPitchMismatch;
 constexpr double kMinAlignedShare = 0.1;
 
 bool LinesAlongTheAxis(const AxialPitch& pitch) { return pitch.aligned >= kMinAlignedShare; }
+// Read across the lobe, a lattice holds the lobe's glints too, and a
+// sawtooth's two caustic columns stand at fixed azimuths in every other
+// thread: aligned power that is not the axial threads'. There it must hold
+// twice the share to give the period alone. (On independently rendered
+// photographs, lattices across the lobe: the axial lines 0.21-0.97; one
+// sawtooth's caustics and relief, 0.11, at λ itself.)
+constexpr double kMinAlignedAcrossLobe = 0.2;
 // The most power at half the lattice's frequency, relative to its own, for
 // the lattice alone to give the period (EstimateWavelength).
 constexpr double kLatticeMaxHalf = 0.25;
@@ -832,14 +839,15 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
       return;
     }
   }
-  // The lattice alone gives the period when it was read clear of the lobe,
-  // is made of lines along the axis (the axial threads, λ/2 apart) and
-  // they dominate it: at half their frequency a weave may show its period λ
+  // The lattice alone gives the period when it is made of lines along the
+  // axis (the axial threads, λ/2 apart; across the lobe, more clearly so)
+  // and they dominate it: at half their frequency a weave may show its period λ
   // (the circumferential threads' relief under stray light), but weaker; as
   // strong a half says the peak found may be a harmonic of a coarser
   // pattern, and then nothing says which is the pitch.
   const bool lattice_alone =
-      lattice.pitch.found && lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch) &&
+      lattice.pitch.found && LinesAlongTheAxis(lattice.pitch) &&
+      (lattice.beside_lobe || lattice.pitch.aligned >= kMinAlignedAcrossLobe) &&
       lattice.pitch.half_contrast < kLatticeMaxHalf * lattice.pitch.contrast;
   std::string period_failure;
   if (!best && !lattice_alone) {
