@@ -642,25 +642,27 @@ std::optional<CombFitResult> CombFitter::First(const std::vector<double>& starts
 std::string LatticeWords(const LatticeReading& lattice) {
   const AxialPitch& p = lattice.pitch;
   if (!p.found) return p.reason;
-  if (!lattice.beside_lobe) {
-    return absl::StrFormat(
-        "glint lines %.3f mm apart were seen only across the lobe, whose glints may make that "
-        "spacing the period itself, and the comb of glints confirmed neither it nor twice it",
-        p.pitch_mm);
-  }
+  const char* where = lattice.beside_lobe ? "beside the lobe" : "across the lobe";
   if (!LinesAlongTheAxis(p)) {
     return absl::StrFormat(
-        "beside the lobe a pattern repeats every %.3f mm, but not in lines along the axis (%.0f%% "
-        "of its power in them): a plain weave's relief, whose neighbouring threads are half a "
-        "period out of step, may repeat with the period itself, and the comb of glints "
-        "confirmed neither it nor twice it",
+        "%s a pattern repeats every %.3f mm, but not in lines along the axis (%.0f%% of its "
+        "power in them): a plain weave's relief, whose neighbouring threads are half a period "
+        "out of step, may repeat with the period itself, and the comb of glints confirmed "
+        "neither it nor twice it",
+        where, p.pitch_mm, 100.0 * p.aligned);
+  }
+  if (!lattice.beside_lobe && p.aligned < kMinAlignedAcrossLobe) {
+    return absl::StrFormat(
+        "glint lines %.3f mm apart were seen only across the lobe, with too little of their "
+        "power in lines along the axis (%.0f%%) to tell them from the lobe's own glints, and "
+        "the comb of glints confirmed neither their spacing nor twice it",
         p.pitch_mm, 100.0 * p.aligned);
   }
   return absl::StrFormat(
-      "beside the lobe glint lines stand %.3f mm apart, but a pattern at twice that spacing is "
-      "%.0f%% as strong, so the lines may be a harmonic of a coarser pattern, and the comb of "
-      "glints confirmed neither twice nor once their spacing",
-      p.pitch_mm, 100.0 * p.half_contrast / p.contrast);
+      "%s glint lines stand %.3f mm apart, but a pattern at twice that spacing is %.0f%% as "
+      "strong, so the lines may be a harmonic of a coarser pattern, and the comb of glints "
+      "confirmed neither twice nor once their spacing",
+      where, p.pitch_mm, 100.0 * p.half_contrast / p.contrast);
 }
 
 // Without the axial threads' lines: the glints counted along the lobe's
