@@ -723,16 +723,26 @@ std::optional<CombFitResult> WavelengthFromGlintCount(
   return std::nullopt;
 }
 
+// The limbs' errors where the profile put the mirror and the split.
+LimbErrors ProfileLimbErrors(const Estimate& estimate, const Acquisition& acquisition) {
+  return LimbErrorsAt(estimate.cylinder, acquisition.GetProjection(),
+                      estimate.specular_azimuth_rad.value, estimate.peak_spacing_rad.value);
+}
+
+// A wavelength without the comb's max slope: it and the amplitude from it
+// and the profile's max slope.
+void SetWavelength(const Quantity& lambda, Estimate* estimate) {
+  estimate->wavelength_mm = lambda;
+  estimate->amplitude_mm =
+      AmplitudeFrom(estimate->model, estimate->max_slope, estimate->wavelength_mm);
+}
+
 // The comb fit's period alone (CombWavelength), the max slope and spacing
 // left as the profile read them, and the amplitude from both.
 void ApplyCombPeriod(const CombFitResult& comb, const CombFitOptions& options,
                      const Acquisition& acquisition, Estimate* estimate) {
-  const LimbErrors limbs =
-      LimbErrorsAt(estimate->cylinder, acquisition.GetProjection(),
-                   estimate->specular_azimuth_rad.value, estimate->peak_spacing_rad.value);
-  estimate->wavelength_mm = CombWavelength(comb, options, limbs);
-  estimate->amplitude_mm =
-      AmplitudeFrom(estimate->model, estimate->max_slope, estimate->wavelength_mm);
+  SetWavelength(CombWavelength(comb, options, ProfileLimbErrors(*estimate, acquisition)),
+                estimate);
   estimate->warnings.push_back(absl::StrFormat(
       "wavelength from the comb of glints fitted over %d rows, started from the axial threads' "
       "glint lines; it explains %.0f%% of the rows' variance, enough for the period the lines "
@@ -743,19 +753,14 @@ void ApplyCombPeriod(const CombFitResult& comb, const CombFitOptions& options,
 // The wavelength as twice the axial threads' pitch, when the comb of
 // circumferential glints did not confirm a period: its error is the
 // lattice's, the limbs' scale and kAxialPitchMismatch.
-void ApplyLatticePeriod(const AxialPitch& pitch, const CylinderGeometry& cylinder,
-                        const Acquisition& acquisition, const std::string& comb_failure,
-                        Estimate* estimate) {
-  const LimbErrors limbs =
-      LimbErrorsAt(cylinder, acquisition.GetProjection(), estimate->specular_azimuth_rad.value,
-                   estimate->peak_spacing_rad.value);
+void ApplyLatticePeriod(const AxialPitch& pitch, const Acquisition& acquisition,
+                        const std::string& comb_failure, Estimate* estimate) {
+  const LimbErrors limbs = ProfileLimbErrors(*estimate, acquisition);
   const double lambda = 2.0 * pitch.pitch_mm;
   const double sys = lambda * std::hypot(kAxialPitchMismatch, limbs.wavelength_relative_systematic);
   const double se = std::hypot(2.0 * pitch.pitch_stderr_mm, limbs.wavelength_relative * lambda,
                                kAxialPitchMismatch * lambda);
-  estimate->wavelength_mm = {lambda, se, true, 0.0, sys, sys};
-  estimate->amplitude_mm =
-      AmplitudeFrom(estimate->model, estimate->max_slope, estimate->wavelength_mm);
+  SetWavelength({lambda, se, true, 0.0, sys, sys}, estimate);
   estimate->warnings.push_back(absl::StrFormat(
       "wavelength from the axial threads' glint lines: %.0f lines over %d rows, %.3f mm apart, "
       "and a plain weave's period is twice that (its error counts %.0f%% for weaves whose "
@@ -870,7 +875,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   const std::string comb_failure =
       comb ? comb->failure() : std::string(wide_signals.status().message());
   if (lattice_alone) {
-    ApplyLatticePeriod(lattice.pitch, cylinder, acquisition, comb_failure, estimate);
+    ApplyLatticePeriod(lattice.pitch, acquisition, comb_failure, estimate);
     return;
   }
   estimate->warnings.push_back(absl::StrCat("wavelength and amplitude unresolved: ",
