@@ -51,16 +51,26 @@ std::vector<double> RowShading(const float* v, int n) {
 // One row's deviation from its shading in noise sigmas, clamped (a clipped
 // sample counts as a glint), under a Hann window. (Each arc is its own
 // window: its lines' phase is unrelated to another arc's across the lobe.)
-std::vector<float> WindowedRow(const ArcSignals& signals, int row, double noise, double clamp) {
+std::vector<float> ClampedRow(const ArcSignals& signals, int row, double noise, double clamp) {
   const int n = signals.num_samples;
   const float* v = signals.Row(row);
   const std::uint8_t* ok = &signals.valid[static_cast<std::size_t>(row) * n];
   const std::vector<double> shading = RowShading(v, n);
   std::vector<float> x(n);
   for (int k = 0; k < n; ++k) {
-    const double z = ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp) : clamp;
+    x[k] = static_cast<float>(ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp)
+                                    : clamp);
+  }
+  return x;
+}
+
+// Samples [lo, hi) of a clamped row under a Hann window of their own.
+std::vector<float> Windowed(const std::vector<float>& z, int lo, int hi) {
+  const int n = hi - lo;
+  std::vector<float> x(n);
+  for (int k = 0; k < n; ++k) {
     const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / n);
-    x[k] = static_cast<float>(z * hann);
+    x[k] = static_cast<float>(z[lo + k] * hann);
   }
   return x;
 }
@@ -216,6 +226,95 @@ double RefineFundamental(const std::vector<double>& power, const Spectrum& s, do
   return den > 0.0 ? num / den : k0;
 }
 
+// The jackknife's standard error from the estimates without each group.
+double JackknifeError(const std::vector<double>& without) {
+  const double n = static_cast<double>(without.size());
+  double mean = 0.0;
+  for (double k : without) mean += k / n;
+  double var = 0.0;
+  for (double k : without) var += (k - mean) * (k - mean);
+  return std::sqrt(var * (n - 1.0) / n);
+}
+
+// The fundamental of a stretch's spectrum near bin k0, refined harmonic by
+// harmonic: each harmonic is looked for where the fundamental so far puts
+// it, so a local pitch a few percent from the lattice's is followed up to
+// its highest harmonics. Each harmonic that stands out is weighed by its
+// excess (the j-th places the fundamental j times better); -1 if none does.
+double FollowHarmonics(const std::vector<double>& power, const Spectrum& s, double k0,
+                       double min_excess) {
+  double k = RefinePeak(power, k0, 1);
+  double num = 0.0;
+  double den = 0.0;
+  for (int j = 1; j * k <= s.k_hi + 1; ++j) {
+    const double e = s.Near(j * k);
+    if (e < min_excess) continue;
+    const double kj = RefinePeak(power, j * k, 2);
+    num += e * j * kj;
+    den += e * j * j;
+    k = num / den;
+  }
+  return den > 0.0 ? k : -1.0;
+}
+
+// Stretches of arc along which the local pitch is read: at least this many
+// of the lattice's pitches long (the harmonics then stand ±2 bins clear of
+// each other's windows at fourfold padding).
+constexpr double kLocalPitches = 5.0;
+// How far a stretch's pitch may lie from the lattice's and still be its
+// lines: a glint sliding over a round thread shortens the local pitch by at
+// most ρ/R ≤ p/2R (glints/round_threads.h), 4 % for a 2 mm pitch on a 23 mm
+// radius; a stretch whose harmonics lie further off holds other structure.
+constexpr double kLocalReach = 0.05;
+
+std::vector<LocalPitch> LocalPitches(const std::vector<ArcSignals>& arcs,
+                                     const std::vector<std::vector<std::vector<float>>>& clamped,
+                                     double pitch_samples, int groups, double min_excess) {
+  std::vector<LocalPitch> local;
+  for (std::size_t a = 0; a < arcs.size(); ++a) {
+    const int n = arcs[a].num_samples;
+    const int stretches = static_cast<int>(n / (kLocalPitches * pitch_samples));
+    if (stretches < 1 || clamped[a].size() < 2) continue;
+    for (int t = 0; t < stretches; ++t) {
+      const int lo = t * n / stretches;
+      const int hi = (t + 1) * n / stretches;
+      const int size = cv::getOptimalDFTSize(4 * (hi - lo));
+      std::vector<std::vector<double>> group_power(groups, std::vector<double>(size / 2 + 1, 0.0));
+      for (std::size_t r = 0; r < clamped[a].size(); ++r) {
+        const std::vector<double> p = PowerOf(Windowed(clamped[a][r], lo, hi), size);
+        std::vector<double>& g = group_power[r % groups];
+        for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
+      }
+      std::vector<double> total(size / 2 + 1, 0.0);
+      for (const std::vector<double>& g : group_power) {
+        for (std::size_t k = 0; k < total.size(); ++k) total[k] += g[k];
+      }
+      const double k0 = size / pitch_samples;
+      const Spectrum spectrum =
+          MakeSpectrum(total, std::max(2, static_cast<int>(0.5 * k0)), size / 2 - 2);
+      const double k = FollowHarmonics(total, spectrum, k0, min_excess);
+      if (k < 0.0 || std::fabs(k / k0 - 1.0) > kLocalReach) continue;
+      std::vector<double> k_without;
+      std::vector<double> rest(total.size());
+      for (int g = 0; g < groups; ++g) {
+        for (std::size_t j = 0; j < total.size(); ++j) rest[j] = total[j] - group_power[g][j];
+        const double kg = FollowHarmonics(rest, spectrum, k0, min_excess);
+        if (kg > 0.0) k_without.push_back(kg);
+      }
+      if (k_without.size() < 2) continue;
+      const double k_se = JackknifeError(k_without);
+      // No spread at all: every group stopped on the same bin, no reading.
+      if (!(k_se > 0.0)) continue;
+      LocalPitch lp;
+      lp.azimuth_rad = arcs[a].first_azimuth_rad + 0.5 * (lo + hi - 1) * arcs[a].step_rad;
+      lp.pitch_mm = size / k * arcs[a].StepMm();
+      lp.stderr_mm = lp.pitch_mm * k_se / k;
+      local.push_back(lp);
+    }
+  }
+  return local;
+}
+
 }  // namespace
 
 absl::Status AxialPitchOptions::Validate() const {
@@ -259,11 +358,14 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
   // Noise of a sample interpolated between pixels is at most one pixel's.
   const double noise = std::max(pixel_noise, 1e-9);
   int count = 0;
+  std::vector<std::vector<std::vector<float>>> clamped;
   std::vector<std::vector<std::vector<float>>> windowed;
   for (const ArcSignals& a : arcs) {
+    clamped.emplace_back();
     windowed.emplace_back();
     for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
-      windowed.back().push_back(WindowedRow(a, static_cast<int>(i), noise, options.clamp_sigmas));
+      clamped.back().push_back(ClampedRow(a, static_cast<int>(i), noise, options.clamp_sigmas));
+      windowed.back().push_back(Windowed(clamped.back().back(), 0, a.num_samples));
       const std::vector<double> p = PowerOf(windowed.back().back(), size);
       std::vector<double>& g = group_power[count % groups];
       for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
@@ -299,11 +401,7 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
     for (std::size_t k = 0; k < total.size(); ++k) rest[k] = total[k] - group_power[g][k];
     k_without[g] = RefineFundamental(rest, spectrum, k0, min_excess);
   }
-  double mean = 0.0;
-  for (double k : k_without) mean += k / groups;
-  double var = 0.0;
-  for (double k : k_without) var += (k - mean) * (k - mean);
-  const double k_se = std::sqrt(var * (groups - 1) / groups);
+  const double k_se = JackknifeError(k_without);
   const double pitch_samples = size / k_peak;
   result.pitches_in_arc = n / pitch_samples;
   if (result.pitches_in_arc < options.min_pitches) {
@@ -313,9 +411,11 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
     return result;
   }
   result.aligned = AlignedShare(windowed, k_peak / size);
+  result.half_aligned = AlignedShare(windowed, 0.5 * k_peak / size);
   result.found = true;
   result.pitch_mm = pitch_samples * step_mm;
   result.pitch_stderr_mm = result.pitch_mm * k_se / k_peak;
+  result.local = LocalPitches(arcs, clamped, pitch_samples, groups, min_excess);
   return result;
 }
 

@@ -61,6 +61,13 @@ struct AxialPitchOptions {
   absl::Status Validate() const;
 };
 
+// The lattice's pitch along one stretch of arc (AxialPitch::local).
+struct LocalPitch {
+  double azimuth_rad = 0.0;  // the stretch's middle
+  double pitch_mm = 0.0;
+  double stderr_mm = 0.0;    // jackknife over groups of rows
+};
+
 struct AxialPitch {
   bool found = false;
   double pitch_mm = 0.0;         // arc length between neighbouring lines
@@ -74,8 +81,14 @@ struct AxialPitch {
   // weave's circumferential relief, whose neighbouring threads are half a
   // period out of step and whose period along a row is λ itself.
   double aligned = 0.0;
+  // The same at half the fundamental frequency.
+  double half_aligned = 0.0;
   double pitches_in_arc = 0.0;   // how many pitches the analysed arc holds
   int rows_used = 0;
+  // The pitch along stretches of the arcs at least 5 pitches long, where
+  // their harmonics stand near the lattice's (within 5 %): the lines' pitch
+  // changes across the cylinder (glints/round_threads.h).
+  std::vector<LocalPitch> local;
   std::string reason;            // why none was found (empty when found)
 };
 

@@ -448,19 +448,19 @@ constexpr double kLatticeLitReach = 80.0 * kDeg;
 // over a band of at most kLatticeBandRows about the cylinder's middle (the
 // band must span several threads for AlignedShare).
 constexpr int kLatticeRows = 128;
+// Half the width of a caustic's column of glints left out of a lattice read
+// across the lobe, before the lens blur: under a source of up to 1° (σ),
+// facets within 3σ/2 = 1.5° of the caustic's tilt still mirror it, and
+// their glints stand as far from it in azimuth; 2° leaves a margin.
+constexpr double kCausticHalfWidth = 2.0 * kDeg;
 constexpr int kLatticeBandRows = 384;
-// The relative difference allowed between twice the axial threads' pitch
-// and the undulation period the circumferential glints repeat with. In an
-// ideal plain weave they are equal; on photographs from an independent
-// renderer the axial pitch came out 0.980-0.993 of half the period in
-// azimuth (24 photographs), shorter the coarser the weave, as if the axial
-// threads lay on a radius larger by a fraction of a thread's thickness. A
-// period from the lines alone counts it as a systematic error common to
-// every photograph of the sample.
-constexpr double kAxialPitchMismatch = 0.02;
 // How far a comb fit started from the lattice may end from its start and
-// still stand on the lattice's evidence: the mismatch and a half.
-constexpr double kLatticeCombReach = 1.5 * kAxialPitchMismatch;
+// still stand on the lattice's evidence. The threads' pitch from the lines
+// (glints/round_threads.h) gives the period to a few tenths of a percent;
+// 3 % leaves room for the comb's own period error (its optimum moves by
+// tenths of a percent with its start) without taking a comb that has moved
+// to another period.
+constexpr double kLatticeCombReach = 0.03;
 
 // Whether a lattice is the lines of threads running along the axis, λ/2
 // apart: most of its power in lines at the same azimuths from row to row.
@@ -478,24 +478,41 @@ bool LinesAlongTheAxis(const AxialPitch& pitch) { return pitch.aligned >= kMinAl
 // photographs, lattices across the lobe: the axial lines 0.21-0.97; one
 // sawtooth's caustics and relief, 0.11, at λ itself.)
 constexpr double kMinAlignedAcrossLobe = 0.2;
-// The most power at half the lattice's frequency, relative to its own, for
-// the lattice alone to give the period (EstimateWavelength).
+// At half the lattice's frequency a plain weave shows its period λ: the
+// lobe's circumferential glints and the relief under stray light repeat
+// with it, neighbouring threads half a period out of step, so that power
+// lies in a checkerboard and not in lines along the axis (on independently
+// rendered photographs read across the lobe: 6-75 % of the lattice's power
+// at half its frequency, 0.3-3 % of that in lines along the axis). Lines
+// along the axis at twice the spacing, though, say the lattice found may be
+// a harmonic of a coarser pattern of lines, and then nothing says which is
+// the threads' pitch. CoarserLines compares the two patterns' power in
+// lines along the axis; the lattice alone gives the period below
+// kLatticeMaxHalf.
 constexpr double kLatticeMaxHalf = 0.25;
+
+double CoarserLines(const AxialPitch& pitch) {
+  return pitch.half_contrast * pitch.half_aligned /
+         std::max(pitch.contrast * pitch.aligned, 1e-12);
+}
 
 // The axial threads' pitch (glints/weave_lattice.h) over the lit and visible
 // surface beside the lobe, whose circumferential glints repeat with λ and
 // not with the pitch; where the lobe leaves too little beside it, over the
 // whole lit surface, lobe included (beside_lobe false: then the lattice's
 // fundamental may be λ itself).
+// For lines along the axis, `threads` is the threads' own pitch from the
+// lines' (glints/round_threads.h); for any other lattice, the lattice's.
 struct LatticeReading {
   AxialPitch pitch;
   bool beside_lobe = false;
+  ThreadPitch threads;
 };
 
 LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& cylinder,
                                 const Projection& projection, double phase_angle_rad,
                                 const PeakPickingResult& peaks, const GlintModel& model,
-                                const AxialPitchOptions& options) {
+                                const EstimateOptions& options) {
   const double limit = std::min(projection.VisibleLimbRad() - 3.0 * kDeg, kLatticeMaxAzimuth);
   const double lo = std::max(phase_angle_rad - kLatticeLitReach, -limit);
   const double hi = std::min(phase_angle_rad + kLatticeLitReach, limit);
@@ -525,7 +542,7 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
         kLatticeMaxAzimuth / kDeg);
     if (arcs.empty()) return none;
     absl::StatusOr<AxialPitch> p = EstimateAxialPitch(
-        arcs, arcs[0].StepMm() / model.mm_per_px, model.pixel_noise, options);
+        arcs, arcs[0].StepMm() / model.mm_per_px, model.pixel_noise, options.lattice);
     return p.ok() ? *p : none;
   };
   LatticeReading reading;
@@ -536,11 +553,39 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
   }
   reading.pitch = read(beside);
   reading.beside_lobe = reading.pitch.found;
+  std::vector<ArcSignals> whole;
   if (!reading.pitch.found) {
-    std::vector<ArcSignals> whole;
-    if (std::optional<ArcSignals> s = arc(lo, hi)) whole.push_back(*std::move(s));
+    // Across the lobe, less its two caustics: there every thread glints at
+    // the same azimuths (a sawtooth's facets, a sinusoid's steepest slope),
+    // in columns along the axis that are not axial threads. A caustic
+    // spreads over kCausticHalfWidth and 3 lens-blur sigmas either side.
+    const double gap = kCausticHalfWidth + 3.0 * cylinder.lens_blur_px / cylinder.radius_px;
+    double from = lo;
+    for (double c : {peaks.mirror_rad - 0.5 * peaks.spacing_rad,
+                     peaks.mirror_rad + 0.5 * peaks.spacing_rad}) {
+      if (c - gap <= from || c + gap >= hi) continue;
+      if (std::optional<ArcSignals> s = arc(from, c - gap)) whole.push_back(*std::move(s));
+      from = c + gap;
+    }
+    if (std::optional<ArcSignals> s = arc(from, hi)) whole.push_back(*std::move(s));
     const AxialPitch p = read(whole);
     if (p.found || beside.empty()) reading.pitch = p;
+  }
+  reading.threads.pitch_mm = reading.pitch.pitch_mm;
+  reading.threads.pitch_stderr_mm = reading.pitch.pitch_stderr_mm;
+  if (reading.pitch.found && LinesAlongTheAxis(reading.pitch)) {
+    // Read across the lobe, the stretches between its caustics may hold the
+    // lobe's own glints, which stand where the undulation mirrors and not
+    // on the axial threads' tops: the threads' roundness is fitted beside it.
+    AxialPitch lines = reading.pitch;
+    lines.local.erase(std::remove_if(lines.local.begin(), lines.local.end(),
+                                     [&](const LocalPitch& l) {
+                                       return l.azimuth_rad > lobe.from_rad &&
+                                              l.azimuth_rad < lobe.to_rad;
+                                     }),
+                      lines.local.end());
+    reading.threads = ThreadPitchFromGlints(lines, reading.beside_lobe ? beside : whole,
+                                            peaks.mirror_rad, options.round_threads);
   }
   return reading;
 }
@@ -659,10 +704,10 @@ std::string LatticeWords(const LatticeReading& lattice) {
         p.pitch_mm, 100.0 * p.aligned);
   }
   return absl::StrFormat(
-      "%s glint lines stand %.3f mm apart, but a pattern at twice that spacing is %.0f%% as "
-      "strong, so the lines may be a harmonic of a coarser pattern, and the comb of glints "
-      "confirmed neither twice nor once their spacing",
-      where, p.pitch_mm, 100.0 * p.half_contrast / p.contrast);
+      "%s glint lines stand %.3f mm apart, but lines along the axis at twice that spacing are "
+      "%.0f%% as strong, so the lines may be a harmonic of a coarser pattern, and the comb of "
+      "glints confirmed neither twice nor once their spacing",
+      where, p.pitch_mm, 100.0 * CoarserLines(p));
 }
 
 // Without the axial threads' lines: the glints counted along the lobe's
@@ -751,21 +796,25 @@ void ApplyCombPeriod(const CombFitResult& comb, const CombFitOptions& options,
 }
 
 // The wavelength as twice the axial threads' pitch, when the comb of
-// circumferential glints did not confirm a period: its error is the
-// lattice's, the limbs' scale and kAxialPitchMismatch.
-void ApplyLatticePeriod(const AxialPitch& pitch, const Acquisition& acquisition,
+// circumferential glints did not confirm a period: its error is the threads'
+// pitch's (the lines' and ρ's, glints/round_threads.h) and the limbs' scale.
+void ApplyLatticePeriod(const LatticeReading& lattice, const Acquisition& acquisition,
                         const std::string& comb_failure, Estimate* estimate) {
   const LimbErrors limbs = ProfileLimbErrors(*estimate, acquisition);
-  const double lambda = 2.0 * pitch.pitch_mm;
-  const double sys = lambda * std::hypot(kAxialPitchMismatch, limbs.wavelength_relative_systematic);
-  const double se = std::hypot(2.0 * pitch.pitch_stderr_mm, limbs.wavelength_relative * lambda,
-                               kAxialPitchMismatch * lambda);
+  const ThreadPitch& t = lattice.threads;
+  const double lambda = 2.0 * t.pitch_mm;
+  const double sys =
+      std::hypot(2.0 * t.model_stderr_mm, limbs.wavelength_relative_systematic * lambda);
+  const double se = std::hypot(2.0 * t.pitch_stderr_mm, limbs.wavelength_relative * lambda);
   SetWavelength({lambda, se, true, 0.0, sys, sys}, estimate);
   estimate->warnings.push_back(absl::StrFormat(
-      "wavelength from the axial threads' glint lines: %.0f lines over %d rows, %.3f mm apart, "
-      "and a plain weave's period is twice that (its error counts %.0f%% for weaves whose "
-      "threads' pitches differ); the comb of circumferential glints did not confirm it%s",
-      pitch.pitches_in_arc, pitch.rows_used, pitch.pitch_mm, 100.0 * kAxialPitchMismatch,
+      "wavelength from the axial threads' glint lines: %.0f lines over %d rows, %.3f mm apart "
+      "as seen; each glint slides over its round thread with the mirror azimuth, and threads "
+      "whose tops curve with a radius of %.2f ± %.2f mm (fitted to the lines' pitch along %d "
+      "stretches of arc, with a plain weave's prior) stand %.3f mm apart; a plain weave's period "
+      "is twice that, and the comb of circumferential glints did not confirm it%s",
+      lattice.pitch.pitches_in_arc, lattice.pitch.rows_used, lattice.pitch.pitch_mm,
+      t.glint_radius_mm, t.glint_radius_stderr_mm, t.stretches, t.pitch_mm,
       comb_failure.empty() ? std::string() : absl::StrCat(" (", comb_failure, ")")));
 }
 
@@ -803,7 +852,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   model.lens_blur_px = cylinder.lens_blur_px;
   const LatticeReading lattice = ReadAxialLattice(luminance, cylinder, projection,
                                                   acquisition.phase_angle_rad, peaks, model,
-                                                  options.lattice);
+                                                  options);
   const double half = 0.5 * peaks.spacing_rad;
   const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;
   ArcSignalOptions arc;
@@ -834,7 +883,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     // kLatticeCombReach of its start; one that explains less of the rows
     // than min_explained, but kLatticePeriodExplained, gives the period only
     // (the lattice stands behind it; the slope stays the profile's).
-    std::vector<double> starts = {2.0 * lattice.pitch.pitch_mm, lattice.pitch.pitch_mm};
+    std::vector<double> starts = {2.0 * lattice.threads.pitch_mm, lattice.threads.pitch_mm};
     if (!LinesAlongTheAxis(lattice.pitch)) std::swap(starts[0], starts[1]);
     if (lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch)) starts.pop_back();
     best = comb->First(starts,
@@ -848,14 +897,11 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   }
   // The lattice alone gives the period when it is made of lines along the
   // axis (the axial threads, λ/2 apart; across the lobe, more clearly so)
-  // and they dominate it: at half their frequency a weave may show its period λ
-  // (the circumferential threads' relief under stray light), but weaker; as
-  // strong a half says the peak found may be a harmonic of a coarser
-  // pattern, and then nothing says which is the pitch.
+  // and no coarser pattern of lines along the axis rivals them.
   const bool lattice_alone =
       lattice.pitch.found && LinesAlongTheAxis(lattice.pitch) &&
       (lattice.beside_lobe || lattice.pitch.aligned >= kMinAlignedAcrossLobe) &&
-      lattice.pitch.half_contrast < kLatticeMaxHalf * lattice.pitch.contrast;
+      CoarserLines(lattice.pitch) < kLatticeMaxHalf;
   std::string period_failure;
   if (!best && !lattice_alone) {
     best = WavelengthFromGlintCount(signals, model, sawtooth_read, options,
@@ -875,7 +921,7 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   const std::string comb_failure =
       comb ? comb->failure() : std::string(wide_signals.status().message());
   if (lattice_alone) {
-    ApplyLatticePeriod(lattice.pitch, acquisition, comb_failure, estimate);
+    ApplyLatticePeriod(lattice, acquisition, comb_failure, estimate);
     return;
   }
   estimate->warnings.push_back(absl::StrCat("wavelength and amplitude unresolved: ",
@@ -1459,6 +1505,7 @@ absl::Status EstimateOptions::Validate() const {
   if (absl::Status s = detection.Validate(); !s.ok()) return s;
   if (absl::Status s = profile.Validate(); !s.ok()) return s;
   if (absl::Status s = lattice.Validate(); !s.ok()) return s;
+  if (absl::Status s = round_threads.Validate(); !s.ok()) return s;
   if (absl::Status s = glints.Validate(); !s.ok()) return s;
   if (absl::Status s = comb.Validate(); !s.ok()) return s;
   return peaks.Validate();

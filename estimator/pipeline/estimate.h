@@ -15,6 +15,7 @@
 #include "estimator/cylinder/cylinder_detection.h"
 #include "estimator/glints/comb_fit.h"
 #include "estimator/glints/glint_period.h"
+#include "estimator/glints/round_threads.h"
 #include "estimator/glints/weave_lattice.h"
 #include "estimator/io/decode.h"
 #include "estimator/io/image.h"
@@ -76,6 +77,7 @@ struct EstimateOptions {
   ProfileOptions profile;
   PeakPickingOptions peaks;
   AxialPitchOptions lattice;
+  RoundThreadOptions round_threads;
   GlintPeriodOptions glints;
   CombFitOptions comb;
   int fit_max_iterations = 100;  // accurate mode's least-squares fits

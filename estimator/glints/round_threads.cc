@@ -1,0 +1,92 @@
+#include "estimator/glints/round_threads.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "absl/status/status.h"
+
+namespace weavefit {
+namespace {
+
+// The lattice's spectrum weighs each sample by its Hann window squared (its
+// power), every row alike: the mean of cos(μ − φ) under that weight.
+double MeanCos(const std::vector<ArcSignals>& arcs, double mirror_rad) {
+  double sum = 0.0;
+  double weight = 0.0;
+  for (const ArcSignals& a : arcs) {
+    const double rows = static_cast<double>(a.rows.size());
+    for (int k = 0; k < a.num_samples; ++k) {
+      const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / a.num_samples);
+      const double w = rows * hann * hann;
+      sum += w * std::cos(mirror_rad - (a.first_azimuth_rad + k * a.step_rad));
+      weight += w;
+    }
+  }
+  return weight > 0.0 ? sum / weight : 0.0;
+}
+
+// The largest ρ, in pitches (ThreadPitchFromGlints).
+constexpr double kMaxRadiusPitches = 0.5;
+
+}  // namespace
+
+absl::Status RoundThreadOptions::Validate() const {
+  if (!(radius_pitches >= 0.0) || !(radius_pitches_sd > 0.0) || !(local_scatter >= 0.0)) {
+    return absl::InvalidArgumentError(
+        "round thread options: radius_pitches and local_scatter must not be negative, "
+        "radius_pitches_sd must be positive");
+  }
+  return absl::OkStatus();
+}
+
+ThreadPitch ThreadPitchFromGlints(const AxialPitch& apparent, const std::vector<ArcSignals>& arcs,
+                                  double mirror_rad, const RoundThreadOptions& options) {
+  ThreadPitch t;
+  const double p = apparent.pitch_mm;
+  const double radius_mm = arcs.empty() ? 0.0 : arcs[0].radius_mm;
+  if (!(p > 0.0) || !(radius_mm > 0.0)) return t;
+  // Local pitch p_i = a − b·c_i (a the threads' pitch, b = a·κ), weighted
+  // least squares with the prior on b as one more observation.
+  const double b_prior = p * p * options.radius_pitches / radius_mm;
+  const double b_sd = p * p * options.radius_pitches_sd / radius_mm;
+  double aa = 0.0, ab = 0.0, bb = 1.0 / (b_sd * b_sd), ya = 0.0, yb = b_prior / (b_sd * b_sd);
+  for (const LocalPitch& l : apparent.local) {
+    const double c = std::cos(mirror_rad - l.azimuth_rad);
+    const double scatter = options.local_scatter * p;
+    const double w = 1.0 / std::max(l.stderr_mm * l.stderr_mm + scatter * scatter, 1e-12 * p * p);
+    aa += w;
+    ab -= w * c;
+    bb += w * c * c;
+    ya += w * l.pitch_mm;
+    yb -= w * c * l.pitch_mm;
+  }
+  t.stretches = static_cast<int>(apparent.local.size());
+  t.mean_cos = MeanCos(arcs, mirror_rad);
+  double kappa = options.radius_pitches * p / radius_mm;
+  double kappa_sd = options.radius_pitches_sd * p / radius_mm;
+  const double det = aa * bb - ab * ab;
+  if (t.stretches > 0 && det > 0.0) {
+    // κ = b/a of the fit, bounded: a glint on a convex thread trails the
+    // mirror azimuth (κ ≥ 0), and cannot leave its thread: ρ·|sin(μ − φ)|
+    // stays within the thread's half-width, at most half a pitch, over the
+    // 60-80° from μ a lattice is read at, so ρ ≤ p/2. (The fit's intercept
+    // is not taken for the pitch: the lattice's own reading is, from all its
+    // samples, and a stretch may have followed a neighbouring peak.)
+    const double a = (ya * bb - ab * yb) / det;
+    const double b = (aa * yb - ab * ya) / det;
+    kappa = std::clamp(b / a, 0.0, kMaxRadiusPitches * p / radius_mm);
+    kappa_sd = std::sqrt(aa / det) / a;
+  }
+  // The lattice's spectrum weighs the local pitches' frequencies,
+  // (1 + κ·cos(μ − φ))/p, by its samples' power: p = P·(1 + κ·mean cos).
+  const double stretch = 1.0 + kappa * t.mean_cos;
+  t.pitch_mm = p * stretch;
+  t.model_stderr_mm = p * t.mean_cos * kappa_sd;
+  t.pitch_stderr_mm = std::hypot(apparent.pitch_stderr_mm * stretch, t.model_stderr_mm);
+  t.glint_radius_mm = kappa * radius_mm;
+  t.glint_radius_stderr_mm = kappa_sd * radius_mm;
+  return t;
+}
+
+}  // namespace weavefit
