@@ -29,6 +29,45 @@ double MeanCos(const std::vector<ArcSignals>& arcs, double mirror_rad) {
 // The largest ρ, in pitches (ThreadPitchFromGlints).
 constexpr double kMaxRadiusPitches = 0.5;
 
+// The weighted least-squares fit of the local pitches, p_i = a − b·c_i (a
+// the threads' pitch, b = a·κ, c_i = cos(μ − φ_i)), with the prior on b as
+// one more observation, over the stretches `use` marks.
+struct LineFit {
+  double a = 0.0;
+  double b = 0.0;
+  double b_var = 0.0;
+  bool ok = false;
+};
+
+LineFit FitLocalPitches(const std::vector<LocalPitch>& local, const std::vector<double>& cosines,
+                        const std::vector<double>& weights, const std::vector<bool>& use,
+                        double b_prior, double b_sd) {
+  double aa = 0.0, ab = 0.0, bb = 1.0 / (b_sd * b_sd), ya = 0.0, yb = b_prior / (b_sd * b_sd);
+  for (std::size_t i = 0; i < local.size(); ++i) {
+    if (!use[i]) continue;
+    const double w = weights[i];
+    const double c = cosines[i];
+    aa += w;
+    ab -= w * c;
+    bb += w * c * c;
+    ya += w * local[i].pitch_mm;
+    yb -= w * c * local[i].pitch_mm;
+  }
+  LineFit f;
+  const double det = aa * bb - ab * ab;
+  if (!(aa > 0.0) || !(det > 0.0)) return f;
+  f.a = (ya * bb - ab * yb) / det;
+  f.b = (aa * yb - ab * ya) / det;
+  f.b_var = aa / det;
+  f.ok = f.a > 0.0;
+  return f;
+}
+
+// A stretch whose pitch lies further than this many of its errors from the
+// fit is not the lattice's lines sliding over round threads (a stretch
+// that followed other structure): it is left out and the fit redone.
+constexpr double kLocalOutlier = 3.0;
+
 }  // namespace
 
 absl::Status RoundThreadOptions::Validate() const {
@@ -46,37 +85,48 @@ ThreadPitch ThreadPitchFromGlints(const AxialPitch& apparent, const std::vector<
   const double p = apparent.pitch_mm;
   const double radius_mm = arcs.empty() ? 0.0 : arcs[0].radius_mm;
   if (!(p > 0.0) || !(radius_mm > 0.0)) return t;
-  // Local pitch p_i = a − b·c_i (a the threads' pitch, b = a·κ), weighted
-  // least squares with the prior on b as one more observation.
+  const std::vector<LocalPitch>& local = apparent.local;
+  std::vector<double> cosines(local.size());
+  std::vector<double> weights(local.size());
+  const double scatter = options.local_scatter * p;
+  for (std::size_t i = 0; i < local.size(); ++i) {
+    cosines[i] = std::cos(mirror_rad - local[i].azimuth_rad);
+    weights[i] = 1.0 / std::max(local[i].stderr_mm * local[i].stderr_mm + scatter * scatter,
+                                1e-12 * p * p);
+  }
   const double b_prior = p * p * options.radius_pitches / radius_mm;
   const double b_sd = p * p * options.radius_pitches_sd / radius_mm;
-  double aa = 0.0, ab = 0.0, bb = 1.0 / (b_sd * b_sd), ya = 0.0, yb = b_prior / (b_sd * b_sd);
-  for (const LocalPitch& l : apparent.local) {
-    const double c = std::cos(mirror_rad - l.azimuth_rad);
-    const double scatter = options.local_scatter * p;
-    const double w = 1.0 / std::max(l.stderr_mm * l.stderr_mm + scatter * scatter, 1e-12 * p * p);
-    aa += w;
-    ab -= w * c;
-    bb += w * c * c;
-    ya += w * l.pitch_mm;
-    yb -= w * c * l.pitch_mm;
+  std::vector<bool> use(local.size(), true);
+  LineFit fit = FitLocalPitches(local, cosines, weights, use, b_prior, b_sd);
+  // The worst outlier out, while one stands beyond kLocalOutlier errors.
+  while (fit.ok) {
+    int worst = -1;
+    double worst_z = kLocalOutlier;
+    for (std::size_t i = 0; i < local.size(); ++i) {
+      const double z = std::fabs(local[i].pitch_mm - (fit.a - fit.b * cosines[i])) *
+                       std::sqrt(weights[i]);
+      if (use[i] && z > worst_z) {
+        worst = static_cast<int>(i);
+        worst_z = z;
+      }
+    }
+    if (worst < 0) break;
+    use[worst] = false;
+    fit = FitLocalPitches(local, cosines, weights, use, b_prior, b_sd);
   }
-  t.stretches = static_cast<int>(apparent.local.size());
+  t.stretches = static_cast<int>(std::count(use.begin(), use.end(), true));
   t.mean_cos = MeanCos(arcs, mirror_rad);
   double kappa = options.radius_pitches * p / radius_mm;
   double kappa_sd = options.radius_pitches_sd * p / radius_mm;
-  const double det = aa * bb - ab * ab;
-  if (t.stretches > 0 && det > 0.0) {
+  if (fit.ok) {
     // κ = b/a of the fit, bounded: a glint on a convex thread trails the
     // mirror azimuth (κ ≥ 0), and cannot leave its thread: ρ·|sin(μ − φ)|
     // stays within the thread's half-width, at most half a pitch, over the
     // 60-80° from μ a lattice is read at, so ρ ≤ p/2. (The fit's intercept
     // is not taken for the pitch: the lattice's own reading is, from all its
-    // samples, and a stretch may have followed a neighbouring peak.)
-    const double a = (ya * bb - ab * yb) / det;
-    const double b = (aa * yb - ab * ya) / det;
-    kappa = std::clamp(b / a, 0.0, kMaxRadiusPitches * p / radius_mm);
-    kappa_sd = std::sqrt(aa / det) / a;
+    // samples.)
+    kappa = std::clamp(fit.b / fit.a, 0.0, kMaxRadiusPitches * p / radius_mm);
+    kappa_sd = std::sqrt(fit.b_var) / fit.a;
   }
   // The lattice's spectrum weighs the local pitches' frequencies,
   // (1 + κ·cos(μ − φ))/p, by its samples' power: p = P·(1 + κ·mean cos).

@@ -5,7 +5,8 @@
 // thread's top). Across the cylinder φ changes and the glint slides over
 // its thread, so the lines stand closer than the threads:
 //     local pitch = p·(1 − κ·cos(μ − φ)),   κ = ρ / R,
-// 1-3 % on a woven surface (ρ a third of a pitch of 0.5-2 mm, R = 23 mm),
+// 1-3 % on a woven surface (ρ a quarter of a pitch or more, pitches of
+// 0.5-2 mm, R = 23 mm),
 // and a photograph's lines are read mostly 20-80° from μ, where the cosine
 // is 0.2-0.95. κ is fitted to the local pitches along the arc
 // (AxialPitch::local, beside the lobe) with a prior on ρ from a plain
@@ -24,10 +25,13 @@
 namespace weavefit {
 
 struct RoundThreadOptions {
-  // Prior on ρ, in axial pitches: a plain weave's threads are round or
-  // somewhat flattened and cover half to nine tenths of the pitch, so their
-  // tops curve with a radius of 0.15-0.45 pitch.
-  double radius_pitches = 0.3;
+  // Prior on ρ, in axial pitches: the middle of the range a lattice can
+  // show, 0 to 1/2 (ThreadPitchFromGlints), with its ends 1.7 sigmas out.
+  // A plain weave's round threads, covering half to nine tenths of the
+  // pitch, glint with ρ = 0.25-0.45; under stray light the threads' own
+  // texture, which does not slide, mixes lines at the threads' places into
+  // the lattice, and it shows less.
+  double radius_pitches = 0.25;
   double radius_pitches_sd = 0.15;
   // How far one stretch's pitch scatters about the model, relative, beyond
   // its jackknife error: the threads' spacing wanders along the arc the

@@ -125,6 +125,34 @@ TEST(RoundThreadsTest, WithoutLocalPitchesThePriorDecides) {
   EXPECT_NEAR(t.glint_radius_mm, options.radius_pitches, 1e-9);
 }
 
+// Local pitches that follow the model, and one stretch that followed other
+// structure 3 % long: it is left out, and κ comes from the rest.
+TEST(RoundThreadsTest, AStretchFarOffTheModelIsLeftOut) {
+  const double pitch = 1.5;
+  const double rho = 0.45;
+  AxialPitch apparent;
+  apparent.found = true;
+  apparent.pitch_stderr_mm = 0.001;
+  ArcSignals arc;
+  arc.radius_mm = kRadiusMm;
+  arc.step_rad = 0.01;
+  arc.first_azimuth_rad = -60.0 * kDeg;
+  arc.num_samples = static_cast<int>(120.0 * kDeg / arc.step_rad);
+  arc.rows = {0};
+  for (double deg : {-55.0, -40.0, -25.0, 25.0, 40.0, 55.0}) {
+    LocalPitch l;
+    l.azimuth_rad = deg * kDeg;
+    l.pitch_mm = pitch * (1.0 - rho / kRadiusMm * std::cos(l.azimuth_rad));
+    l.stderr_mm = 0.0005;
+    apparent.local.push_back(l);
+  }
+  apparent.local.back().pitch_mm *= 1.03;
+  apparent.pitch_mm = pitch / (1.0 + rho / kRadiusMm * 0.8);
+  const ThreadPitch t = ThreadPitchFromGlints(apparent, {arc}, 0.0, RoundThreadOptions());
+  EXPECT_EQ(t.stretches, 5);
+  EXPECT_NEAR(t.glint_radius_mm, rho, 0.1 * rho);
+}
+
 TEST(RoundThreadsTest, BadOptionsAreRefused) {
   RoundThreadOptions options;
   EXPECT_TRUE(options.Validate().ok());

@@ -49,9 +49,10 @@ std::vector<double> RowShading(const float* v, int n) {
 }
 
 // One row's deviation from its shading in noise sigmas, clamped (a clipped
-// sample counts as a glint), under a Hann window. (Each arc is its own
+// sample counts as a glint), 0 where left out. (Each arc is its own
 // window: its lines' phase is unrelated to another arc's across the lobe.)
-std::vector<float> ClampedRow(const ArcSignals& signals, int row, double noise, double clamp) {
+std::vector<float> ClampedRow(const ArcSignals& signals, int row, double noise, double clamp,
+                              const std::vector<std::pair<double, double>>& leave_out) {
   const int n = signals.num_samples;
   const float* v = signals.Row(row);
   const std::uint8_t* ok = &signals.valid[static_cast<std::size_t>(row) * n];
@@ -60,6 +61,13 @@ std::vector<float> ClampedRow(const ArcSignals& signals, int row, double noise, 
   for (int k = 0; k < n; ++k) {
     x[k] = static_cast<float>(ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp)
                                     : clamp);
+  }
+  for (const auto& [from, to] : leave_out) {
+    const int lo = std::max(0, static_cast<int>(std::ceil(
+                                   (from - signals.first_azimuth_rad) / signals.step_rad)));
+    const int hi = std::min(n - 1, static_cast<int>(std::floor(
+                                       (to - signals.first_azimuth_rad) / signals.step_rad)));
+    for (int k = lo; k <= hi; ++k) x[k] = 0.0f;
   }
   return x;
 }
@@ -327,9 +335,9 @@ absl::Status AxialPitchOptions::Validate() const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arcs,
-                                              double step_px, double pixel_noise,
-                                              const AxialPitchOptions& options) {
+absl::StatusOr<AxialPitch> EstimateAxialPitch(
+    const std::vector<ArcSignals>& arcs, double step_px, double pixel_noise,
+    const AxialPitchOptions& options, const std::vector<std::pair<double, double>>& leave_out) {
   if (absl::Status s = options.Validate(); !s.ok()) return s;
   if (!(step_px > 0.0)) return absl::InvalidArgumentError("axial pitch: step_px must be positive");
   AxialPitch result;
@@ -364,7 +372,8 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arc
     clamped.emplace_back();
     windowed.emplace_back();
     for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
-      clamped.back().push_back(ClampedRow(a, static_cast<int>(i), noise, options.clamp_sigmas));
+      clamped.back().push_back(
+          ClampedRow(a, static_cast<int>(i), noise, options.clamp_sigmas, leave_out));
       windowed.back().push_back(Windowed(clamped.back().back(), 0, a.num_samples));
       const std::vector<double> p = PowerOf(windowed.back().back(), size);
       std::vector<double>& g = group_power[count % groups];

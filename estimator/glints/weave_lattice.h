@@ -23,6 +23,7 @@
 #define WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -96,9 +97,14 @@ struct AxialPitch {
 // circumferential glints, which repeat with λ and not with the pitch, left
 // out between them), `step_px` that step in pixels at the axis and
 // `pixel_noise` one pixel's noise sigma in the signals' units.
-absl::StatusOr<AxialPitch> EstimateAxialPitch(const std::vector<ArcSignals>& arcs,
-                                              double step_px, double pixel_noise,
-                                              const AxialPitchOptions& options);
+// Samples within the azimuth ranges `leave_out` (radians, from < to) count
+// as their row's shading: structure there that is not the lattice's (a
+// lobe's caustics) is left out while the rows stay one window, whose lines
+// keep their phase across the gap.
+absl::StatusOr<AxialPitch> EstimateAxialPitch(
+    const std::vector<ArcSignals>& arcs, double step_px, double pixel_noise,
+    const AxialPitchOptions& options,
+    const std::vector<std::pair<double, double>>& leave_out = {});
 
 }  // namespace weavefit
 

@@ -607,7 +607,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
   // The window cut to the scatter's lawful range (above) also cuts off what
   // lies within 10° of the terminator and of the limb, where a caustic may
   // stand: one peak there is no evidence of a smooth lobe. A sawtooth at
-  // −115° (random scene 4047), its inner caustic 1° inside the terminator and
+  // −115°, its inner caustic 1° inside the terminator and
   // its outer beyond the limb, read in the cut window as the diffuse dome's
   // single peak, SMOOTH.
   if (trimmed && !split) {
@@ -701,8 +701,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // them within kChordReachDeg (not at the limbs' edges, not clipped), as
     // the best of a straight line, a + b·max(0, cos(φ − α)) and a + b/cos φ
     // with b > 0, and a dome of free centre (below), by the sum of squares.
-    // Two points alone let one bin set it: a steep fine sinusoid at −73°
-    // (scene 4183), its left outside point still on the grazing scatter's
+    // Two points alone let one bin set it: a steep fine sinusoid at −73°,
+    // its left outside point still on the grazing scatter's
     // rise toward the limb, drew a Lambertian chord through its filled
     // valley (a ratio of 0.01: a sawtooth, wrongly).
     bool fitted = false;
@@ -755,8 +755,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         // A dome of free centre, a + p·cos φ + q·sin φ = a + b·cos(φ − φ0):
         // a Lambertian term seen through vignetting is brightest toward the
         // image's centre, not at α, and neither the straight chord nor the
-        // Lambertian one at α follows it between peaks far apart (random
-        // scene 5109: a sawtooth 54° wide on a dome centred at −34° for
+        // Lambertian one at α follows it between peaks far apart (a
+        // sawtooth 54° wide on a dome centred at −34° for
         // α = −40.7°, 8-bit, vignetting 0.26, read a valley ratio of 0.28,
         // a sinusoid). Kept only where its centre lies between the peaks'
         // outside points and it fits the bins outside them at least twice
@@ -937,7 +937,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // comb of teeth) or a filled valley mean a smooth slope distribution.
     // ... or both caustics with a sinusoid's inner shoulder: a steep fine
     // sinusoid (m = 0.70, 2.4 px per period: no comb), its caustics sharp,
-    // fills its valley to 0.095 of the peaks only (scene 4151), but its
+    // fills its valley to 0.095 of the peaks only, but its
     // peaks' asymmetry reads 0.36-0.40; over 249 random sawtooth scenes the
     // lower of the two reads at most 0.045, over the fixtures' at most 0.03.
     result.model = teeth.size() < 3 && result.valley_ratio < options.sawtooth_valley_ratio &&
@@ -1186,7 +1186,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     // height on weavefit's own smooth renders, 5-15° on independently
     // rendered ones with 2-6° of microfacet roughness. Far wider, the one
     // peak is the body's diffuse dome, and the specular lobe, if any, is
-    // lost in it (random scene 5229: a sinusoid 64° wide at 300 photons
+    // lost in it (a sinusoid 64° wide at 300 photons
     // under diffuse 0.12, its glints below the noise, read as a 49° SMOOTH).
     if (result.single_peak_fwhm_rad > kMaxSinglePeakFwhmDeg * kDeg) {
       return absl::InvalidArgumentError(absl::StrFormat(

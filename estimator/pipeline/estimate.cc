@@ -448,19 +448,24 @@ constexpr double kLatticeLitReach = 80.0 * kDeg;
 // over a band of at most kLatticeBandRows about the cylinder's middle (the
 // band must span several threads for AlignedShare).
 constexpr int kLatticeRows = 128;
+constexpr int kLatticeBandRows = 384;
 // Half the width of a caustic's column of glints left out of a lattice read
 // across the lobe, before the lens blur: under a source of up to 1° (σ),
 // facets within 3σ/2 = 1.5° of the caustic's tilt still mirror it, and
 // their glints stand as far from it in azimuth; 2° leaves a margin.
 constexpr double kCausticHalfWidth = 2.0 * kDeg;
-constexpr int kLatticeBandRows = 384;
 // How far a comb fit started from the lattice may end from its start and
-// still stand on the lattice's evidence. The threads' pitch from the lines
-// (glints/round_threads.h) gives the period to a few tenths of a percent;
-// 3 % leaves room for the comb's own period error (its optimum moves by
-// tenths of a percent with its start) without taking a comb that has moved
-// to another period.
+// still stand on the lattice's evidence: 3 stated errors of the threads'
+// pitch (glints/round_threads.h), and at least 3 %. The pitch from many lines
+// is good to a few tenths of a percent, and 3 % leaves room for the comb's
+// own period error (its optimum moves by tenths of a percent with its
+// start) without taking a comb that has moved to another period; from a
+// few lines, or a correction the prior decides, the pitch is less sure.
 constexpr double kLatticeCombReach = 0.03;
+
+double LatticeCombReach(const ThreadPitch& threads) {
+  return std::max(kLatticeCombReach, 3.0 * threads.pitch_stderr_mm / threads.pitch_mm);
+}
 
 // Whether a lattice is the lines of threads running along the axis, λ/2
 // apart: most of its power in lines at the same azimuths from row to row.
@@ -534,7 +539,8 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
     absl::StatusOr<ArcSignals> s = ExtractArcSignals(luminance, cylinder, projection, o);
     return s.ok() ? std::optional<ArcSignals>(*std::move(s)) : std::nullopt;
   };
-  auto read = [&](const std::vector<ArcSignals>& arcs) {
+  auto read = [&](const std::vector<ArcSignals>& arcs,
+                  const std::vector<std::pair<double, double>>& leave_out) {
     AxialPitch none;
     none.reason = absl::StrFormat(
         "no stretch of the lit surface within %.0f deg of the line of sight to count glint lines "
@@ -542,7 +548,7 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
         kLatticeMaxAzimuth / kDeg);
     if (arcs.empty()) return none;
     absl::StatusOr<AxialPitch> p = EstimateAxialPitch(
-        arcs, arcs[0].StepMm() / model.mm_per_px, model.pixel_noise, options.lattice);
+        arcs, arcs[0].StepMm() / model.mm_per_px, model.pixel_noise, options.lattice, leave_out);
     return p.ok() ? *p : none;
   };
   LatticeReading reading;
@@ -551,7 +557,7 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
                           std::pair(std::max(lo, lobe.to_rad), hi)}) {
     if (std::optional<ArcSignals> s = arc(from, to)) beside.push_back(*std::move(s));
   }
-  reading.pitch = read(beside);
+  reading.pitch = read(beside, {});
   reading.beside_lobe = reading.pitch.found;
   std::vector<ArcSignals> whole;
   if (!reading.pitch.found) {
@@ -560,15 +566,13 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
     // in columns along the axis that are not axial threads. A caustic
     // spreads over kCausticHalfWidth and 3 lens-blur sigmas either side.
     const double gap = kCausticHalfWidth + 3.0 * cylinder.lens_blur_px / cylinder.radius_px;
-    double from = lo;
-    for (double c : {peaks.mirror_rad - 0.5 * peaks.spacing_rad,
-                     peaks.mirror_rad + 0.5 * peaks.spacing_rad}) {
-      if (c - gap <= from || c + gap >= hi) continue;
-      if (std::optional<ArcSignals> s = arc(from, c - gap)) whole.push_back(*std::move(s));
-      from = c + gap;
+    std::vector<std::pair<double, double>> caustics;
+    for (double side : {-0.5, 0.5}) {
+      const double c = peaks.mirror_rad + side * peaks.spacing_rad;
+      caustics.push_back({c - gap, c + gap});
     }
-    if (std::optional<ArcSignals> s = arc(from, hi)) whole.push_back(*std::move(s));
-    const AxialPitch p = read(whole);
+    if (std::optional<ArcSignals> s = arc(lo, hi)) whole.push_back(*std::move(s));
+    const AxialPitch p = read(whole, caustics);
     if (p.found || beside.empty()) reading.pitch = p;
   }
   reading.threads.pitch_mm = reading.pitch.pitch_mm;
@@ -873,28 +877,6 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
   if (wide_signals.ok()) {
     comb.emplace(luminance, cylinder, projection, wide, *wide_signals, model, options.comb);
   }
-  std::optional<CombFitResult> best;
-  if (comb && lattice.pitch.found) {
-    // Lines along the axis are the axial threads, λ/2 apart: the comb starts
-    // from twice their spacing (and, read across the lobe, whose glints may
-    // have made the lattice's fundamental λ, from the spacing too). A lattice
-    // not in lines along the axis is a plain weave's relief, which repeats
-    // with λ: its spacing first, then twice it. The comb must land within
-    // kLatticeCombReach of its start; one that explains less of the rows
-    // than min_explained, but kLatticePeriodExplained, gives the period only
-    // (the lattice stands behind it; the slope stays the profile's).
-    std::vector<double> starts = {2.0 * lattice.threads.pitch_mm, lattice.threads.pitch_mm};
-    if (!LinesAlongTheAxis(lattice.pitch)) std::swap(starts[0], starts[1]);
-    if (lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch)) starts.pop_back();
-    best = comb->First(starts,
-                       sawtooth_read ? options.comb.min_explained_alone
-                                     : options.comb.min_explained,
-                       kLatticeCombReach, sawtooth_read ? 1.0 : kLatticePeriodExplained);
-    if (!best && comb->period_only()) {
-      ApplyCombPeriod(*comb->period_only(), options.comb, acquisition, estimate);
-      return;
-    }
-  }
   // The lattice alone gives the period when it is made of lines along the
   // axis (the axial threads, λ/2 apart; across the lobe, more clearly so)
   // and no coarser pattern of lines along the axis rivals them.
@@ -902,6 +884,37 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
       lattice.pitch.found && LinesAlongTheAxis(lattice.pitch) &&
       (lattice.beside_lobe || lattice.pitch.aligned >= kMinAlignedAcrossLobe) &&
       CoarserLines(lattice.pitch) < kLatticeMaxHalf;
+  std::optional<CombFitResult> best;
+  if (comb && lattice.pitch.found) {
+    // Lines along the axis are the axial threads, λ/2 apart: the comb starts
+    // from twice their spacing (and, read across the lobe, whose glints may
+    // have made the lattice's fundamental λ, from the spacing too, unless
+    // the lines alone give the period). A lattice not in lines along the
+    // axis is a plain weave's relief, which repeats with λ: its spacing
+    // first, then twice it. The comb must land within LatticeCombReach of
+    // its start; one that explains less of the rows than min_explained, but
+    // kLatticePeriodExplained, gives the period only (the lattice stands
+    // behind it; the slope stays the profile's).
+    std::vector<double> starts = {2.0 * lattice.threads.pitch_mm, lattice.threads.pitch_mm};
+    if (!LinesAlongTheAxis(lattice.pitch)) std::swap(starts[0], starts[1]);
+    // A comb that overturns a sawtooth read (whose own glints do not repeat)
+    // must stand on the lattice's first reading of λ: from a second guess
+    // at twice it, a "sinusoid" of twice the period explained a sawtooth's
+    // caustics and relief to 90 %.
+    if (lattice_alone || sawtooth_read ||
+        (lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch))) {
+      starts.pop_back();
+    }
+    best = comb->First(starts,
+                       sawtooth_read ? options.comb.min_explained_alone
+                                     : options.comb.min_explained,
+                       LatticeCombReach(lattice.threads),
+                       sawtooth_read ? 1.0 : kLatticePeriodExplained);
+    if (!best && comb->period_only()) {
+      ApplyCombPeriod(*comb->period_only(), options.comb, acquisition, estimate);
+      return;
+    }
+  }
   std::string period_failure;
   if (!best && !lattice_alone) {
     best = WavelengthFromGlintCount(signals, model, sawtooth_read, options,
