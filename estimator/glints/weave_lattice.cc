@@ -20,9 +20,9 @@ namespace {
 // its median on the body.
 constexpr int kShadingBlock = 64;
 
-// The row's shading: medians of blocks, interpolated linearly between the
-// blocks' centres.
-std::vector<double> RowShading(const float* v, int n) {
+// The row's shading: medians of blocks (of the samples not left out, when a
+// block has any), interpolated linearly between the blocks' centres.
+std::vector<double> RowShading(const float* v, const std::vector<bool>& left_out, int n) {
   const int blocks = std::max(1, n / kShadingBlock);
   std::vector<double> centre(blocks);
   std::vector<double> level(blocks);
@@ -30,7 +30,11 @@ std::vector<double> RowShading(const float* v, int n) {
   for (int b = 0; b < blocks; ++b) {
     const int lo = b * n / blocks;
     const int hi = (b + 1) * n / blocks;
-    part.assign(v + lo, v + hi);
+    part.clear();
+    for (int k = lo; k < hi; ++k) {
+      if (!left_out[k]) part.push_back(v[k]);
+    }
+    if (part.empty()) part.assign(v + lo, v + hi);
     level[b] = Median(part);
     centre[b] = 0.5 * (lo + hi - 1);
   }
@@ -56,18 +60,21 @@ std::vector<float> ClampedRow(const ArcSignals& signals, int row, double noise, 
   const int n = signals.num_samples;
   const float* v = signals.Row(row);
   const std::uint8_t* ok = &signals.valid[static_cast<std::size_t>(row) * n];
-  const std::vector<double> shading = RowShading(v, n);
-  std::vector<float> x(n);
-  for (int k = 0; k < n; ++k) {
-    x[k] = static_cast<float>(ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp)
-                                    : clamp);
-  }
+  std::vector<bool> left_out(n, false);
   for (const auto& [from, to] : leave_out) {
+    if (!(signals.step_rad > 0.0) || !(to > from)) continue;
     const int lo = std::max(0, static_cast<int>(std::ceil(
                                    (from - signals.first_azimuth_rad) / signals.step_rad)));
     const int hi = std::min(n - 1, static_cast<int>(std::floor(
                                        (to - signals.first_azimuth_rad) / signals.step_rad)));
-    for (int k = lo; k <= hi; ++k) x[k] = 0.0f;
+    for (int k = lo; k <= hi; ++k) left_out[k] = true;
+  }
+  const std::vector<double> shading = RowShading(v, left_out, n);
+  std::vector<float> x(n, 0.0f);
+  for (int k = 0; k < n; ++k) {
+    if (left_out[k]) continue;
+    x[k] = static_cast<float>(ok[k] ? std::clamp((v[k] - shading[k]) / noise, -clamp, clamp)
+                                    : clamp);
   }
   return x;
 }
@@ -298,8 +305,9 @@ std::vector<LocalPitch> LocalPitches(const std::vector<ArcSignals>& arcs,
         for (std::size_t k = 0; k < total.size(); ++k) total[k] += g[k];
       }
       const double k0 = size / pitch_samples;
-      const Spectrum spectrum =
-          MakeSpectrum(total, std::max(2, static_cast<int>(0.5 * k0)), size / 2 - 2);
+      const int k_lo = std::max(2, static_cast<int>(0.5 * k0));
+      if (size / 2 - 2 <= k_lo + 2) continue;
+      const Spectrum spectrum = MakeSpectrum(total, k_lo, size / 2 - 2);
       const double k = FollowHarmonics(total, spectrum, k0, min_excess);
       if (k < 0.0 || std::fabs(k / k0 - 1.0) > kLocalReach) continue;
       std::vector<double> k_without;

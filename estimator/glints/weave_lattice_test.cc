@@ -145,6 +145,30 @@ TEST(AxialPitchTest, HalfTheFrequencyIsToldAlongTheAxisFromACheckerboard) {
   EXPECT_GT(weave->aligned, 0.9);
 }
 
+// Two bright columns at the same samples in every row (a lobe's caustics,
+// 40 samples wide each) beside faint lines (1.5 noise sigmas): read with
+// them, the lattice is theirs; left out (shading included), the lines'
+// pitch and alignment come back as without them.
+TEST(AxialPitchTest, CausticsLeftOutLeaveTheLinesAlone) {
+  const double pitch = 0.9;
+  ArcSignals s = Lines(pitch, 64, 3000, 0.003, 0.002, 0.0, 5, 0.0);
+  for (int r = 0; r < 64; ++r) {
+    for (int k : {1000, 2100}) {
+      for (int j = k; j < k + 40; ++j) s.values[static_cast<std::size_t>(r) * 3000 + j] += 0.3f;
+    }
+  }
+  std::vector<std::pair<double, double>> caustics;
+  for (int k : {1000, 2100}) {
+    caustics.push_back({s.first_azimuth_rad + (k - 2) * s.step_rad,
+                        s.first_azimuth_rad + (k + 42) * s.step_rad});
+  }
+  absl::StatusOr<AxialPitch> p = EstimateAxialPitch({s}, kStepPx, 0.002, {}, caustics);
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->found) << p->reason;
+  EXPECT_NEAR(p->pitch_mm, pitch, 0.005 * pitch);
+  EXPECT_GT(p->aligned, 0.9);
+}
+
 TEST(AxialPitchTest, NoiseAloneHasNoLattice) {
   absl::StatusOr<AxialPitch> p =
       EstimateAxialPitch({Lines(1.0, 48, 3000, 0.0, 0.002)}, kStepPx, 0.002, {});
