@@ -467,6 +467,19 @@ double LatticeCombReach(const ThreadPitch& threads) {
   return std::max(kLatticeCombReach, 3.0 * threads.pitch_stderr_mm / threads.pitch_mm);
 }
 
+// A comb that overturns a sawtooth read must agree with the lattice within
+// 3 of its stated errors as well (the comb's own period moves by a few
+// tenths of a percent with its start, kCombPeriodFloor), since both readings
+// must then say the glints repeat with that period: a "sinusoid" fitted to
+// a sawtooth's caustics and relief ended 2.9 % from a lattice known to
+// better than 1 % and explained 93 % of the rows.
+constexpr double kCombPeriodFloor = 0.005;
+
+double OverturnReach(const ThreadPitch& threads) {
+  return std::clamp(3.0 * threads.pitch_stderr_mm / threads.pitch_mm, kCombPeriodFloor,
+                    kLatticeCombReach);
+}
+
 // Whether a lattice is the lines of threads running along the axis, λ/2
 // apart: most of its power in lines at the same azimuths from row to row.
 // A plain weave's circumferential relief (under stray light, say), whose
@@ -814,11 +827,16 @@ void ApplyLatticePeriod(const LatticeReading& lattice, const Acquisition& acquis
   estimate->warnings.push_back(absl::StrFormat(
       "wavelength from the axial threads' glint lines: %.0f lines over %d rows, %.3f mm apart "
       "as seen; each glint slides over its round thread with the mirror azimuth, and threads "
-      "whose tops curve with a radius of %.2f ± %.2f mm (fitted to the lines' pitch along %d "
-      "stretches of arc, with a plain weave's prior) stand %.3f mm apart; a plain weave's period "
-      "is twice that, and the comb of circumferential glints did not confirm it%s",
+      "whose tops curve with a radius of %.2f ± %.2f mm (%s) stand %.3f mm apart; a plain "
+      "weave's period is twice that, and the comb of circumferential glints did not confirm it%s",
       lattice.pitch.pitches_in_arc, lattice.pitch.rows_used, lattice.pitch.pitch_mm,
-      t.glint_radius_mm, t.glint_radius_stderr_mm, t.stretches, t.pitch_mm,
+      t.glint_radius_mm, t.glint_radius_stderr_mm,
+      t.stretches > 0 ? absl::StrFormat("fitted to the lines' pitch along %d stretch%s of arc, "
+                                        "with a plain weave's prior",
+                                        t.stretches, t.stretches == 1 ? "" : "es")
+                      : std::string("a plain weave's prior: no stretch of arc beside the lobe "
+                                    "showed the slide"),
+      t.pitch_mm,
       comb_failure.empty() ? std::string() : absl::StrCat(" (", comb_failure, ")")));
 }
 
@@ -898,9 +916,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     std::vector<double> starts = {2.0 * lattice.threads.pitch_mm, lattice.threads.pitch_mm};
     if (!LinesAlongTheAxis(lattice.pitch)) std::swap(starts[0], starts[1]);
     // A comb that overturns a sawtooth read (whose own glints do not repeat)
-    // must stand on the lattice's first reading of λ: from a second guess
-    // at twice it, a "sinusoid" of twice the period explained a sawtooth's
-    // caustics and relief to 90 %.
+    // must stand on the lattice's first reading of λ (OverturnReach): from a
+    // second guess at twice it, a "sinusoid" of twice the period explained a
+    // sawtooth's caustics and relief to 90 %.
     if (lattice_alone || sawtooth_read ||
         (lattice.beside_lobe && LinesAlongTheAxis(lattice.pitch))) {
       starts.pop_back();
@@ -908,7 +926,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     best = comb->First(starts,
                        sawtooth_read ? options.comb.min_explained_alone
                                      : options.comb.min_explained,
-                       LatticeCombReach(lattice.threads),
+                       sawtooth_read ? OverturnReach(lattice.threads)
+                                     : LatticeCombReach(lattice.threads),
                        sawtooth_read ? 1.0 : kLatticePeriodExplained);
     if (!best && comb->period_only()) {
       ApplyCombPeriod(*comb->period_only(), options.comb, acquisition, estimate);
