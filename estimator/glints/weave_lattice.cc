@@ -282,6 +282,11 @@ constexpr double kLocalPitches = 5.0;
 // radius; a stretch whose harmonics lie further off holds other structure.
 constexpr double kLocalReach = 0.05;
 
+// The lattice's pitch along stretches of each arc (AxialPitch::local): each
+// stretch's rows windowed on their own and their spectra summed, the
+// fundamental followed from the lattice's, a jackknife error over the same
+// groups of rows; a stretch whose harmonics do not stand out, or lie beyond
+// kLocalReach, gives none.
 std::vector<LocalPitch> LocalPitches(const std::vector<ArcSignals>& arcs,
                                      const std::vector<std::vector<std::vector<float>>>& clamped,
                                      double pitch_samples, int groups, double min_excess) {
