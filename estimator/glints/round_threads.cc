@@ -9,7 +9,7 @@
 namespace weavefit {
 namespace {
 
-// The lattice's spectrum weighs each sample by its Hann window squared (its
+// The lattice's spectrum weighs each sample by its Hann weight squared (its
 // power), every row alike: the mean of cos(μ − φ) under that weight.
 double MeanCos(const std::vector<ArcSignals>& arcs, double mirror_rad) {
   double sum = 0.0;
@@ -17,7 +17,7 @@ double MeanCos(const std::vector<ArcSignals>& arcs, double mirror_rad) {
   for (const ArcSignals& a : arcs) {
     const double rows = static_cast<double>(a.rows.size());
     for (int k = 0; k < a.num_samples; ++k) {
-      const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / a.num_samples);
+      const double hann = HannWeight(k, a.num_samples);
       const double w = rows * hann * hann;
       sum += w * std::cos(mirror_rad - (a.first_azimuth_rad + k * a.step_rad));
       weight += w;

@@ -84,8 +84,7 @@ std::vector<float> Windowed(const std::vector<float>& z, int lo, int hi) {
   const int n = hi - lo;
   std::vector<float> x(n);
   for (int k = 0; k < n; ++k) {
-    const double hann = 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / n);
-    x[k] = static_cast<float>(z[lo + k] * hann);
+    x[k] = static_cast<float>(z[lo + k] * HannWeight(k, n));
   }
   return x;
 }

@@ -22,6 +22,7 @@
 #ifndef WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 #define WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 
+#include <cmath>
 #include <string>
 #include <utility>
 #include <vector>
@@ -97,6 +98,13 @@ struct AxialPitch {
 // circumferential glints, which repeat with λ and not with the pitch, left
 // out between them), `step_px` that step in pixels at the axis and
 // `pixel_noise` one pixel's noise sigma in the signals' units.
+// The weight of sample k of n under the Hann window every arc (and every
+// stretch of one) is read through: the lattice's power weighs a sample by
+// its square.
+inline double HannWeight(int k, int n) {
+  return 0.5 - 0.5 * std::cos(2.0 * M_PI * (k + 0.5) / n);
+}
+
 // Samples within the azimuth ranges `leave_out` (radians, from < to) count
 // as their row's shading: structure there that is not the lattice's (a
 // lobe's caustics) is left out while the rows stay one window, whose lines
