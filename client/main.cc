@@ -456,6 +456,7 @@ std::vector<SceneParam> SceneParams(RenderScene& s) {
       {"--stray-light", "strayLight", "diffuse stray light on the whole body: level of a fully exposed crest facing the camera; 0 = none", &s.stray_light},
       {"--stray-texture", "strayTexture", "share of the stray light the weave's relief shades in its deepest gaps (0 = uniform)", &s.stray_texture},
       {"--axial-glint-width", "axialGlintWidth", "axial threads one by one: glint line width, share of lambda/2; 0 = a uniform lobe", &s.axial_glint_width},
+      {"--corner-share", "cornerShare", "a sawtooth's share of arc in its rounded (circular-arc) corners; 0 = sharp", &s.corner_share},
       {"--axial-float-width", "axialFloatWidth", "arc share of lambda/2 where an axial thread floats over a circumferential one's trough; 0 = gaps only", &s.axial_float_width},
       {"--background-gradient", "backgroundGradient", "change of the background level across the frame, full-scale units", &s.background_gradient},
       {"--background-gradient-deg", "backgroundGradientDeg", "direction the background brightens toward, deg; 0 = right, 90 = down", &s.background_gradient_deg},

@@ -16,6 +16,11 @@ namespace {
 // Parameters besides the max slope, in order: mirror azimuth (rad), blur σ
 // (rad), scale, background level, background slope (per rad), scatter level.
 constexpr int kNuisance = 6;
+// A sawtooth's share of arc in its rounded corners: fitted from 3 %, at
+// most half (beyond, the corners are the profile and the flanks the
+// exception: no sawtooth).
+constexpr double kCornerShareStart = 0.03;
+constexpr double kMaxCornerShare = 0.25;
 // Floor added in quadrature to the blur, so that an unblurred caustic never
 // makes the model singular (0.02°).
 constexpr double kBlurFloorRad = 0.02 * M_PI / 180.0;
@@ -26,17 +31,19 @@ constexpr double kBlurFloorRad = 0.02 * M_PI / 180.0;
 // quadrature (all Gaussian).
 struct ProfileSampleCost {
   ProfileSampleCost(ProfileModel model, double phi, double value, double sigma,
-                    double alpha, double fixed_blur, double phi_center, double view)
+                    double alpha, double fixed_blur, double phi_center, double view,
+                    bool censored)
       : model_(model), phi_(phi), value_(value), sigma_(sigma), alpha_(alpha),
-        fixed_blur_(fixed_blur), phi_center_(phi_center), view_(view) {}
+        fixed_blur_(fixed_blur), phi_center_(phi_center), view_(view), censored_(censored) {}
 
   template <typename T>
-  bool operator()(const T* slope, const T* p, T* residual) const {
+  bool operator()(const T* slope, const T* p, const T* corner, T* residual) const {
     using std::cos;
     using std::sqrt;
     RadianceParams<T> rp;
     rp.model = model_;
     rp.max_slope = slope[0];
+    rp.corner_share = corner[0];
     // The facet normal that mirrors the light into the camera is (α + v)/2
     // (DESIGN.md §2): p[0] stands for α/2, v is this sample's view angle.
     rp.mirror_rad = p[0] + T(0.5 * view_);
@@ -49,19 +56,68 @@ struct ProfileSampleCost {
     }
     const T model = specular + p[3] + p[4] * T(phi_ - phi_center_) + scatter;
     residual[0] = (model - T(value_)) / T(sigma_);
+    // A censored bin's value is a lower bound: a model above it is as good
+    // as the bound itself.
+    if (censored_ && ScalarValue(residual[0]) > 0.0) residual[0] = T(0.0);
     return true;
   }
 
   static ceres::CostFunction* Create(ProfileModel model, double phi, double value, double sigma,
                                      double alpha, double fixed_blur, double phi_center,
-                                     double view) {
-    return new ceres::AutoDiffCostFunction<ProfileSampleCost, 1, 1, kNuisance>(
-        new ProfileSampleCost(model, phi, value, sigma, alpha, fixed_blur, phi_center, view));
+                                     double view, bool censored) {
+    return new ceres::AutoDiffCostFunction<ProfileSampleCost, 1, 1, kNuisance, 1>(
+        new ProfileSampleCost(model, phi, value, sigma, alpha, fixed_blur, phi_center, view,
+                              censored));
   }
 
   ProfileModel model_;
   double phi_, value_, sigma_, alpha_, fixed_blur_, phi_center_, view_;
+  bool censored_;
 };
+
+// Each bin's mean with its clipped pixels counted at the clip level, where
+// the profile left them out: a lower bound on what the sensor saw there,
+// and the plain mean where nothing clipped.
+std::vector<double> LowerBounds(const Profile& profile) {
+  std::vector<double> bound = profile.mean;
+  for (int i = 0; i < profile.NumBins(); ++i) {
+    const double clipped = i < static_cast<int>(profile.saturated.size()) ? profile.saturated[i] : 0.0;
+    if (!(clipped > 0.0) || i >= static_cast<int>(profile.saturated_sum.size())) continue;
+    bound[i] = (profile.mean[i] * profile.count[i] + profile.saturated_sum[i]) /
+               (profile.count[i] + clipped);
+  }
+  return bound;
+}
+
+// The integrated autocorrelation of a fit's residuals, 1 + 2·Σ ρ_k over
+// lags k ≥ 1, summed while the pairs of neighbouring lags stay positive
+// (Geyer's initial positive sequence). Residuals correlated over τ bins
+// carry the information of n/τ independent ones, so the covariance, which
+// counts n, is τ too small: the smoothing correlates about 2√π·σ bins, and
+// a comb of glints the fit's smooth lobe cannot follow leaves residuals
+// correlated over its tooth spacing. At least 1.
+double IntegratedCorrelation(const std::vector<double>& r) {
+  const int n = static_cast<int>(r.size());
+  if (n < 8) return 1.0;
+  double mean = 0.0;
+  for (double x : r) mean += x;
+  mean /= n;
+  double c0 = 0.0;
+  for (double x : r) c0 += (x - mean) * (x - mean);
+  if (!(c0 > 0.0)) return 1.0;
+  auto rho = [&](int k) {
+    double c = 0.0;
+    for (int i = 0; i + k < n; ++i) c += (r[i] - mean) * (r[i + k] - mean);
+    return c / c0;
+  };
+  double tau = 1.0;
+  for (int k = 1; k + 1 < n / 4; k += 2) {
+    const double pair = rho(k) + rho(k + 1);
+    if (!(pair > 0.0)) break;
+    tau += 2.0 * pair;
+  }
+  return std::max(tau, 1.0);
+}
 
 }  // namespace
 
@@ -92,39 +148,43 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   // The data: the profile smoothed like the model, with standard errors
   // from the row blocks (they carry the comb's scatter), shrunk by the
   // smoothing and floored by pixel noise.
+  //
+  // Clipped pixels: a bin that holds any is known only from below. Its
+  // pixels at the clip level give a lower bound on its mean (LowerBounds),
+  // and smoothing, a positive average, keeps a bound a bound, so a bin whose
+  // smoothing window holds a clipped pixel is censored: the model must reach
+  // the bound and may stand above it at no cost. (Left out, such bins took a
+  // clipped lobe's caustics with them; read at the bound as levels, they
+  // would flatten them.)
   const double sigma_bins = options.smoothing_rad / bin;
-  const std::vector<double> smoothed = Smooth(profile.mean, sigma_bins);
+  const std::vector<double> smoothed = Smooth(LowerBounds(profile), sigma_bins);
   const double gain = sigma_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * sigma_bins) : 1.0;
   std::vector<int> used;
-  int considered = 0;
+  std::vector<bool> censored(n, false);
+  const int span = static_cast<int>(std::ceil(3.0 * sigma_bins)) + 1;
   for (int i = 0; i < n; ++i) {
     const double phi = profile.azimuth_rad[i];
-    if (profile.count[i] <= 0.0 || std::fabs(phi - mirror0) > reach || std::fabs(phi) > limit) continue;
-    ++considered;
-    // Bins whose smoothing window holds any clipped pixel carry no level: a
-    // clipped glint is the brightest part of its bin, and leaving it out
-    // lowers the bin exactly where the caustics are.
-    bool clipped = false;
-    const int span = static_cast<int>(std::ceil(3.0 * sigma_bins)) + 1;
-    for (int k = std::max(0, i - span); k <= std::min(n - 1, i + span); ++k) {
-      const double total = profile.count[k] + profile.saturated[k];
-      if (total > 0 && profile.saturated[k] > 0.0) clipped = true;
+    if (profile.count[i] + profile.saturated[i] <= 0.0 || std::fabs(phi - mirror0) > reach ||
+        std::fabs(phi) > limit) {
+      continue;
     }
-    if (clipped) continue;
+    for (int k = std::max(0, i - span); k <= std::min(n - 1, i + span); ++k) {
+      if (profile.saturated[k] > 0.0) censored[i] = true;
+    }
     used.push_back(i);
   }
   if (used.size() < 12) return absl::InvalidArgumentError("too few profile bins around the mirror azimuth to fit");
-  if (static_cast<int>(used.size()) < considered) {
-    // Leaving clipped bins out can remove a caustic peak itself, and a
-    // censored likelihood is not implemented yet: no fit rather than a
-    // wrong one.
+  int num_censored = 0;
+  for (int i : used) num_censored += censored[i] ? 1 : 0;
+  if (num_censored > static_cast<int>(used.size()) / 2) {
     return absl::InvalidArgumentError(absl::StrCat(
-        considered - static_cast<int>(used.size()), " of ", considered,
-        " profile bins around the mirror azimuth hold clipped pixels: the fit "
-        "needs a censored likelihood (not implemented)"));
+        num_censored, " of ", used.size(),
+        " profile bins around the mirror azimuth hold clipped pixels: over half the lobe known "
+        "only from below does not fix its shape"));
   }
   auto sigma_of = [&](int i) {
-    const double noise = std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(profile.count[i]);
+    const double pixels = std::max(profile.count[i] + profile.saturated[i], 1.0);
+    const double noise = std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(pixels);
     return std::max(profile.stderr_mean[i], noise) * gain;
   };
   // The blur fixed at each bin: the smoothing and the floor, constant in
@@ -156,6 +216,10 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     fit.model = model;
     double slope[1] = {model == ProfileModel::kSmooth ? 0.0 : std::max(max_slope0, 0.02)};
     double p[kNuisance] = {mirror0, blur0_rad, 1.0, std::min(lo_level, hi_level), 0.0, 0.0};
+    // A sawtooth's rounded corners (SawtoothTiltDensity), from a few
+    // percent of its arc; the other models have none.
+    const bool rounded = model == ProfileModel::kSawtooth;
+    double corner[1] = {rounded ? kCornerShareStart : 0.0};
     // Scale so that the model's highest point matches the data's.
     {
       RadianceParams<double> rp;
@@ -172,8 +236,14 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
       problem.AddResidualBlock(
           ProfileSampleCost::Create(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
                                     phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), mirror0,
-                                    ViewAngleRad(profile.azimuth_rad[i], projection)),
-          new ceres::HuberLoss(3.0), slope, p);
+                                    ViewAngleRad(profile.azimuth_rad[i], projection), censored[i]),
+          new ceres::HuberLoss(3.0), slope, p, corner);
+    }
+    if (rounded) {
+      problem.SetParameterLowerBound(corner, 0, 0.0);
+      problem.SetParameterUpperBound(corner, 0, kMaxCornerShare);
+    } else {
+      problem.SetParameterBlockConstant(corner);
     }
     if (model == ProfileModel::kSmooth) {
       problem.SetParameterBlockConstant(slope);
@@ -197,18 +267,23 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     fit.mirror_rad = p[0] + 0.5 * ViewAngleRad(p[0], projection);
     fit.blur_rad = std::fabs(p[1]);
     fit.num_residuals = static_cast<int>(used.size());
-    fit.num_params = kNuisance + (model == ProfileModel::kSmooth ? 0 : 1);
+    fit.num_censored = num_censored;
+    fit.corner_share = corner[0];
+    fit.num_params = kNuisance + (model == ProfileModel::kSmooth ? 0 : 1) + (rounded ? 1 : 0);
     fit.chi2 = 2.0 * summary.final_cost;
+    std::vector<double> residuals;
     for (int i : used) {
       const double view = ViewAngleRad(profile.azimuth_rad[i], projection);
       const ProfileSampleCost cost(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), mirror0,
-                                   view);
+                                   view, censored[i]);
       double r = 0.0;
-      cost(slope, p, &r);
+      cost(slope, p, corner, &r);
       fit.curve_azimuth_rad.push_back(profile.azimuth_rad[i]);
       fit.curve.push_back(smoothed[i] + r * sigma_of(i));
+      residuals.push_back(r);
     }
+    fit.correlation_bins = IntegratedCorrelation(residuals);
     fit.bic = fit.chi2 + fit.num_params * std::log(static_cast<double>(fit.num_residuals));
     // Standard errors from the covariance, scaled by the reduced chi-square
     // when the residuals say the noise model is too small.
@@ -223,7 +298,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     if (model != ProfileModel::kSmooth) blocks.push_back({slope, slope});
     if (fit.converged && covariance.Compute(blocks, &problem)) {
       const int dof = std::max(fit.num_residuals - fit.num_params, 1);
-      const double inflate = std::max(1.0, fit.chi2 / dof);
+      const double inflate = std::max(1.0, fit.chi2 / dof) * fit.correlation_bins;
       double cp[kNuisance * kNuisance];
       covariance.GetCovarianceBlock(p, p, cp);
       fit.mirror_stderr_rad = std::sqrt(std::max(cp[0], 0.0) * inflate);

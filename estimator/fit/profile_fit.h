@@ -1,7 +1,8 @@
 // Least-squares fits of the optical models (DESIGN.md §3) to the azimuthal
 // profile with Ceres: the whole lobe, not only its peaks, so that the band
 // between the peaks tells a sinusoid from a sawtooth. One fit per candidate
-// model; the candidates are compared by BIC. Ceres types stay in the .cc.
+// model; the candidates are compared by BIC. Bins near clipped pixels are
+// censored (a lower bound). Ceres types stay in the .cc.
 #ifndef WEAVEFIT_ESTIMATOR_FIT_PROFILE_FIT_H_
 #define WEAVEFIT_ESTIMATOR_FIT_PROFILE_FIT_H_
 
@@ -48,10 +49,18 @@ struct ModelFit {
   double mirror_rad = 0.0;
   double mirror_stderr_rad = 0.0;
   double blur_rad = 0.0;
+  // A sawtooth's share of arc in its rounded corners (SawtoothTiltDensity);
+  // 0 for the other models.
+  double corner_share = 0.0;
   double chi2 = 0.0;            // weighted sum of squared residuals
   int num_residuals = 0;
+  int num_censored = 0;         // of them, bins known only from below (clipped)
   int num_params = 0;
   double bic = 0.0;             // chi2 + num_params·ln(num_residuals)
+  // The residuals' integrated autocorrelation (bins): the covariance is
+  // scaled by it, as the residuals carry num_residuals/correlation_bins
+  // independent pieces of information.
+  double correlation_bins = 1.0;
   std::string message;          // the solver's word when not converged
   // The fitted model at the bins it was fitted to, for plots: azimuth (rad)
   // and level (the profile's units; the model is smoothed like the data).
@@ -65,11 +74,14 @@ struct ProfileFitResult {
 };
 
 // Fits SMOOTH, SINUSOID and SAWTOOTH to the profile around α/2, starting
-// from max_slope0 (e.g. peak picking's). Bins near clipped pixels are left
-// out. The standard errors come from the covariance scaled by the reduced
-// chi-square; they do not count the comb of glints (few weave phases in
-// view), whose residuals are correlated: callers must. INVALID_ARGUMENT for a
-// profile that cannot be fitted.
+// from max_slope0 (e.g. peak picking's). Bins near clipped pixels are
+// censored: their clipped pixels at the clip level give a lower bound the
+// model must reach. The standard errors come from the covariance scaled by
+// the reduced chi-square and by the residuals' integrated correlation
+// (correlation_bins); what the models leave out (a comb of glints from few
+// weave phases, a sawtooth's real shape), callers must count.
+// INVALID_ARGUMENT for a profile that cannot be fitted (over half the
+// window clipped, too few bins).
 absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
                                                   double phase_angle_rad,
                                                   const Projection& projection,

@@ -120,8 +120,44 @@ TEST(RadianceTest, DensitiesIntegrateToOne) {
           [&](double b) { return SmoothTiltDensity(b, blur); }, -reach, reach,
           steps);
       EXPECT_NEAR(sinusoid, 1.0, 1e-6) << "m " << m << " blur " << blur;
+      const double rounded = Integrate(
+          [&](double b) { return SawtoothTiltDensity(b, m, blur, 0.2); }, -reach,
+          reach, steps);
       EXPECT_NEAR(sawtooth, 1.0, 1e-6) << "m " << m << " blur " << blur;
+      EXPECT_NEAR(rounded, 1.0, 1e-6) << "m " << m << " blur " << blur;
       EXPECT_NEAR(smooth, 1.0, 1e-6) << "blur " << blur;
+    }
+  }
+}
+
+// The density sums only the nodes near β, found by arcsine: the same sum
+// as over every node, for tilts inside, at and beyond the caustic, near
+// ±90°, for a flat surface, and for node counts of every residue mod 4
+// (where the two runs of nodes meet at θ = π/2 and 3π/2).
+TEST(RadianceTest, SinusoidDensitySumsTheNodesNearTheTilt) {
+  auto every_node = [](double beta, double m, double sigma, int n) {
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double s = std::sin(2.0 * M_PI * (i + 0.5) / n);
+      sum += GaussianDensity(beta - std::atan(m * s), sigma);
+    }
+    return sum / n;
+  };
+  for (int n : {64, 65, 66, 67, 1000}) {
+    for (double m : {0.0, 0.05, 0.4, 2.5}) {
+      for (double sigma : {0.002, 0.02, 0.2}) {
+        for (double beta : {-1.5, -0.5, -0.3, -0.0499, 0.0, 0.1, 0.38, 0.3805, 1.19, 1.56}) {
+          double windowed = 0.0;
+          ForSinusoidNodesNear(beta, m, 9.0 * sigma, n, [&](int i, double s) {
+            EXPECT_NEAR(s, std::sin(2.0 * M_PI * (i + 0.5) / n), 1e-15);
+            windowed += GaussianDensity(beta - std::atan(m * s), sigma);
+          });
+          windowed /= n;
+          const double full = every_node(beta, m, sigma, n);
+          EXPECT_NEAR(windowed, full, 1e-12 * std::max(full, 1.0))
+              << "n " << n << " m " << m << " sigma " << sigma << " beta " << beta;
+        }
+      }
     }
   }
 }

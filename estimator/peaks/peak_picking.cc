@@ -153,9 +153,6 @@ constexpr double kDomeRssShare = 0.5;
 // or any share short of its far side with the scatter's glint lines beside
 // the lobe, does not decide the model: the lobe is refused.
 constexpr double kCombTrimmedAmbiguity = 0.25;
-// The relative error of a sawtooth's spacing for the shape the model leaves
-// out (PickPeaks).
-constexpr double kSawtoothShapeFloor = 0.01;
 
 double Stddev(const std::vector<double>& v) {
   if (v.size() < 2) return 0.0;
@@ -1068,6 +1065,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
           mirrors.push_back(0.5 * (azimuth_of(bl) + azimuth_of(br)));
         }
         comb_rad = 0.5 * gap;
+        result.comb_gap_rad = gap;
         result.smoothing_rad = sigma_h;
         result.warnings.push_back(absl::StrFormat(
             "the lobe is a comb of glints (%d maxima, median spacing %.2f deg): "
@@ -1085,6 +1083,7 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         // The smoothed peaks merge: keep the outermost teeth, whose offset
         // from the caustic can reach a tooth spacing.
         comb_rad = 0.75 * gap;
+        result.comb_gap_rad = gap;
         result.warnings.push_back(absl::StrFormat(
             "the lobe is a comb of glints (%d maxima, median spacing %.2f deg) "
             "too narrow to smooth: the outermost glints were taken as the "
@@ -1147,12 +1146,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
     const double q_left = quantisation_at(result.left_peak_rad);
     const double q_right = quantisation_at(result.right_peak_rad);
     const double q2 = q_left * q_left + q_right * q_right;
-    // A real sawtooth is no pair of delta peaks: its corners are round and
-    // its facets not quite flat. On independently rendered sawtooths
-    // (corners rounded as tanh(8·cos), scripts/independent_scenes.py) the
-    // spacing read 0.3-2.2 % off, either sign, up to 4.4 stated errors
-    // where the smoothed comb's allowance did not cover it; that share,
-    // kSawtoothShapeFloor of the spacing, is common to the sample.
+    // A real sawtooth's shape, which the model leaves out
+    // (kSawtoothShapeFloor), is common to the sample.
     const double shape_rad =
         result.model == ProfileModel::kSawtooth ? kSawtoothShapeFloor * result.spacing_rad : 0.0;
     result.spacing_systematic_rad = std::sqrt(q2 + 2.0 * comb_rad * comb_rad + pull_rad * pull_rad +

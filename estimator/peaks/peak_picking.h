@@ -92,6 +92,9 @@ struct PeakPickingResult {
   double single_peak_fwhm_rad = 0.0;
   // Smoothing (σ) at which the peaks were located.
   double smoothing_rad = 0.0;
+  // Where the lobe is a comb of glints, the median spacing of its maxima
+  // (rad); 0 where it is not.
+  double comb_gap_rad = 0.0;
   // Mean level between the peaks over the lower peak's height.
   double valley_ratio = 0.0;
   // The lower of the two caustic peaks' asymmetries: the excess 2.5 outer

@@ -11,6 +11,7 @@
 #include "absl/strings/str_format.h"
 #include "estimator/fit/profile_fit.h"
 #include "estimator/init/profile_bank.h"
+#include "estimator/select/model_selection.h"
 #include "estimator/glints/comb_fit.h"
 #include "estimator/glints/glint_period.h"
 #include "estimator/profile/arc_signals.h"
@@ -856,13 +857,13 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
     return;
   }
   // A sawtooth mirrors only at the two caustic azimuths, so its glints do
-  // not repeat along the arc. Peak picking calls a split a sawtooth from the
-  // low level between its peaks, which a steep sinusoid shares (m = 0.79:
-  // 0.04-0.06 of the peaks' height, read as a sawtooth 1.2° short, 3-4
-  // stated errors). So the glints are still timed: a period the comb fit
-  // confirms as strictly as one the glint count could not call makes it a
-  // sinusoid after all.
-  const bool sawtooth_read = peaks.model == ProfileModel::kSawtooth;
+  // not repeat along the arc. A split is called a sawtooth from the low
+  // level between its peaks (peak picking, the lobe fits), which a steep
+  // sinusoid shares (m = 0.79: 0.04-0.06 of the peaks' height, read as a
+  // sawtooth 1.2° short, 3-4 stated errors). So the glints are still timed:
+  // a period the comb fit confirms as strictly as one the glint count could
+  // not call makes it a sinusoid after all.
+  const bool sawtooth_read = estimate->model == ProfileModel::kSawtooth;
   const Projection projection = acquisition.GetProjection();
   GlintModel model;
   model.max_slope = peaks.max_slope;
@@ -960,10 +961,9 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
                                             LatticeWords(lattice), "; ", period_failure));
 }
 
-// The least-squares fits overturn peak picking's split model only past
-// both (FitModels).
+// One peak overturns a split read where the geometry cannot place the lobe
+// only when its fit's BIC is this many times lower than either split's.
 constexpr double kOverturnBicRatio = 3.0;
-constexpr double kOverturnBicPerBin = 100.0;
 // The lens blur (σ, px) the limbs must show for `balanced` to fit the models
 // to the profile too.
 constexpr double kFitsFromLensBlurPx = 1.0;
@@ -1008,15 +1008,57 @@ void AddCurves(const PeakPickingResult& peaks, const Acquisition& acquisition,
   }
 }
 
+// The split and mirror azimuth from the chosen model's fit to the whole
+// lobe. Its errors are the fit's covariance, scaled by the reduced
+// chi-square and by the residuals' correlation (FitProfileModels), and what
+// the model leaves out:
+// - a sawtooth: the real shape its fitted corners leave out
+//   (kSawtoothShapeFloor of the spacing, common to the sample);
+// - a sinusoid whose lobe is a comb of glints: the fitted lobe is the limit
+//   of every weave phase in view, and the caustic's outermost glint stands
+//   anywhere within a tooth gap g inside the caustic, as the threads' phase
+//   there falls. Uniform over [0, g] on each side independently, that is
+//   g/√12 per caustic: g/√6 on the spacing, g/√24 on the mirror azimuth.
+void ApplyLobeFit(const ModelFit& fit, const PeakPickingResult& peaks, Estimate* estimate) {
+  estimate->method = "least-squares";
+  if (fit.model == ProfileModel::kSmooth) {
+    estimate->specular_azimuth_rad = {fit.mirror_rad, fit.mirror_stderr_rad, true};
+    // Keep peak picking's upper bound, when it set one.
+    estimate->peak_spacing_rad = {0.0, 0.0, false, estimate->peak_spacing_rad.upper_bound};
+    estimate->max_slope = {0.0, 0.0, false, estimate->max_slope.upper_bound};
+    return;
+  }
+  const double spacing = PeakSpacingRad(fit.max_slope);
+  const double statistical = 2.0 * fit.max_slope_stderr / (1.0 + fit.max_slope * fit.max_slope);
+  const bool sawtooth = fit.model == ProfileModel::kSawtooth;
+  const double common = sawtooth ? kSawtoothShapeFloor * spacing : 0.0;
+  const double gap = sawtooth ? 0.0 : peaks.comb_gap_rad;
+  const double sys = std::hypot(common, gap / std::sqrt(6.0));
+  const double mirror_sys = gap / std::sqrt(24.0);
+  const double sec = 1.0 / std::cos(0.5 * spacing);
+  const double per_spacing = 0.5 * sec * sec;
+  const double dspacing = std::hypot(statistical, sys);
+  estimate->peak_spacing_rad = {spacing, dspacing, true, 0.0, sys, common};
+  estimate->max_slope = {fit.max_slope, per_spacing * dspacing, true, 0.0, per_spacing * sys,
+                         per_spacing * common};
+  estimate->specular_azimuth_rad = {fit.mirror_rad, std::hypot(fit.mirror_stderr_rad, mirror_sys),
+                                    true, 0.0, mirror_sys};
+  estimate->warnings.push_back(absl::StrFormat(
+      "split from a least-squares fit of the %s lobe to the profile (residuals correlated over "
+      "%.0f bins, counted in the errors)%s",
+      ProfileModelName(fit.model), fit.correlation_bins,
+      sawtooth ? absl::StrFormat("; rounded corners fitted (%.0f %% of the arc), the shape "
+                                 "they leave out counted as 1 %% of the spacing",
+                                 100.0 * fit.corner_share)
+               : gap > 0.0 ? absl::StrFormat("; the comb's outermost glints, up to a tooth gap "
+                                             "(%.2f deg) inside each caustic, counted",
+                                             gap / kDeg)
+                           : std::string()));
+}
+
 void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
                const EstimateOptions& options, Estimate* estimate) {
   const ProfileFitOptions fit_options = FitOptionsFor(peaks, options, estimate->cylinder);
-  // The number of bins the smoothing correlates (2√π·σ/bin): the fits run
-  // on the smoothed profile, whose residuals are not independent, so the
-  // plain BIC overstates the evidence by that factor.
-  const double correlated = std::max(
-      1.0, 2.0 * std::sqrt(M_PI) * peaks.smoothing_rad /
-               std::max(estimate->profile.bin_width_rad, 1e-9));
   // Starting slopes: peak picking's, and those of the nearest model shapes
   // in the FLANN bank (estimator/init), which are also reported as
   // candidates. Per model the fit with the lowest BIC over the starts is kept.
@@ -1061,113 +1103,36 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
       if (candidate.converged && (!kept.converged || candidate.bic < kept.bic)) kept = candidate;
     }
   }
-  if (fits.ok()) {
-    fits->best = -1;
-    for (std::size_t i = 0; i < fits->fits.size(); ++i) {
-      if (!fits->fits[i].converged) continue;
-      if (fits->best < 0 || fits->fits[i].bic < fits->fits[fits->best].bic) fits->best = static_cast<int>(i);
-    }
-    // The fits overturn peak picking's split model (judged from the glints
-    // and the level between the peaks) only on strong evidence: a BIC lower
-    // by more than 10 after dividing the difference by the number of bins
-    // the smoothing correlates (`correlated`).
-    if (fits->best >= 0 && peaks.split_resolved && peaks.model != ProfileModel::kSmooth) {
-      for (std::size_t i = 0; i < fits->fits.size(); ++i) {
-        const ModelFit& f = fits->fits[i];
-        if (f.model == peaks.model && f.converged && f.model != fits->fits[fits->best].model &&
-            (f.bic - fits->fits[fits->best].bic) / correlated < 10.0) {
-          fits->best = static_cast<int>(i);
-        }
-      }
-    }
-  }
-  if (!fits.ok() || fits->best < 0) {
-    estimate->warnings.push_back(absl::StrCat(
-        "model fit failed, peak picking kept: ",
-        fits.ok() ? std::string("no fit converged") : std::string(fits.status().message())));
+  if (!fits.ok() || fits->fits.empty()) {
+    estimate->warnings.push_back(
+        absl::StrCat("model fit failed, peak picking kept: ", fits.status().message()));
     return;
   }
+  fits->best = -1;
+  for (std::size_t i = 0; i < fits->fits.size(); ++i) {
+    if (!fits->fits[i].converged) continue;
+    if (fits->best < 0 || fits->fits[i].bic < fits->fits[fits->best].bic) {
+      fits->best = static_cast<int>(i);
+    }
+  }
+  if (fits->best < 0) {
+    estimate->warnings.push_back("model fit failed, peak picking kept: no fit converged");
+    return;
+  }
+  const std::size_t first_fit = estimate->candidates.size();
   for (const ModelFit& f : fits->fits) {
     estimate->candidates.push_back({f.model, "least-squares (BIC)", f.converged ? f.bic : 1e300, false});
   }
-  // The profile fits refine peak picking's reading; they do not overturn its
-  // verdict on the split: on the stability sweep (weavefit bench --sweep) a
-  // split they found where peak picking saw none (grazing light, α = 140°),
-  // or a model they preferred over peak picking's (m = 0.04), came out 0.6°
-  // to 1.9° off with errors of 0.1°-0.35°: confidently wrong.
-  //
-  // One exception: between the two split models, when peak picking read the
-  // split and the fits' evidence is overwhelming (the picked model's BIC at
-  // least kOverturnBicRatio times the other's, and above it by
-  // kOverturnBicPerBin per correlated bin). Its valley ratio reads the level
-  // between the peaks against a chord through the profile just outside
-  // them, which a lens blur spreads and the grazing scatter bends: through
-  // a 2 px blur on 320-1024 px renders three sawtooths of 40 read it as
-  // sinusoids, where the fits (lens-aware, FitProfileModels) preferred the
-  // sawtooth by 3.9-39 times the BIC; no fit preferred a wrong model there.
-  const ProfileModel picked = peaks.split_resolved ? peaks.model : ProfileModel::kSmooth;
-  const ProfileModel fitted = fits->fits[fits->best].model;
-  bool overturned = false;
-  if (fitted != picked && fitted != ProfileModel::kSmooth && picked != ProfileModel::kSmooth) {
-    for (const ModelFit& f : fits->fits) {
-      if (f.model != picked || !f.converged) continue;
-      const double best_bic = fits->fits[fits->best].bic;
-      if (f.bic >= kOverturnBicRatio * best_bic &&
-          (f.bic - best_bic) / correlated >= kOverturnBicPerBin) {
-        estimate->warnings.push_back(absl::StrFormat(
-            "profile fits: the least-squares fits overturn peak picking's %s: %s explains "
-            "the profile with a BIC %.1f times lower (%.0f per correlated bin; the models "
-            "seen through the lens blur the limbs show, %.2f px)",
-            ProfileModelName(picked), ProfileModelName(fitted), f.bic / best_bic,
-            (f.bic - best_bic) / correlated, estimate->cylinder.lens_blur_px));
-        overturned = true;
-        break;
-      }
-    }
-  }
-  if (fitted != picked && !overturned) {
-    estimate->warnings.push_back(absl::StrCat(
-        "profile fits: the least-squares fits prefer ", ProfileModelName(fitted),
-        " to peak picking's ", ProfileModelName(picked),
-        "; on a profile this is not strong enough evidence, so peak picking's reading is kept"));
-    return;
-  }
-  const ModelFit& best = fits->fits[fits->best];
-  estimate->candidates[estimate->candidates.size() - 3 + fits->best].selected = true;
+  const ModelChoice choice = ChooseProfileModel(
+      {peaks.split_resolved, peaks.model, peaks.spacing_rad, peaks.spacing_stderr_rad}, *fits);
+  if (!choice.reason.empty()) estimate->warnings.push_back("model: " + choice.reason);
+  estimate->model = choice.model;
+  if (choice.fit < 0) return;
+  estimate->candidates[first_fit + choice.fit].selected = true;
   for (CandidateScore& c : estimate->candidates) {
     if (c.method == "peak-picking") c.selected = false;
   }
-  estimate->method = "least-squares";
-  estimate->model = best.model;
-  estimate->specular_azimuth_rad = {best.mirror_rad, best.mirror_stderr_rad, true};
-  if (best.model == ProfileModel::kSmooth) {
-    // Keep peak picking's upper bound, when it set one.
-    estimate->peak_spacing_rad = {0.0, 0.0, false, estimate->peak_spacing_rad.upper_bound};
-    estimate->max_slope = {0.0, 0.0, false, estimate->max_slope.upper_bound};
-  } else {
-    // The fit's covariance does not see the comb of glints (its residuals
-    // are correlated): keep at least peak picking's error, which counts it.
-    const double spacing = PeakSpacingRad(best.max_slope);
-    const double fit_dspacing = 2.0 * best.max_slope_stderr / (1.0 + best.max_slope * best.max_slope);
-    const double dspacing = std::max(fit_dspacing, peaks.split_resolved ? peaks.spacing_stderr_rad : 0.0);
-    const double sec = 1.0 / std::cos(0.5 * spacing);
-    // The systematic share: peak picking's allowances when its error is
-    // kept, none when the fit's covariance is larger.
-    const bool kept = dspacing > fit_dspacing;
-    const double sys = kept ? peaks.spacing_systematic_rad : 0.0;
-    const double common = kept ? peaks.spacing_common_rad : 0.0;
-    estimate->peak_spacing_rad = {spacing, dspacing, true, 0.0, sys, common};
-    estimate->max_slope = {best.max_slope, 0.5 * sec * sec * dspacing, true, 0.0,
-                           0.5 * sec * sec * sys, 0.5 * sec * sec * common};
-    if (peaks.mirror_stderr_rad > best.mirror_stderr_rad) {
-      estimate->specular_azimuth_rad = {best.mirror_rad, peaks.mirror_stderr_rad, true, 0.0,
-                                        peaks.mirror_systematic_rad};
-    }
-  }
-  estimate->warnings.push_back(
-      "profile fits: the models were fitted by least squares and the lowest "
-      "BIC chosen; on a comb of glints the errors are peak picking's, which "
-      "count the comb");
+  ApplyLobeFit(fits->fits[choice.fit], peaks, estimate);
 }
 
 // The cylinder the photograph is read through: the given one
@@ -1283,13 +1248,14 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
         " saturated pixels on the cylinder were left out of the profile; "
         "lower the exposure if they fall on the peaks"));
   }
-  // `accurate` fits the models to the profile always; `balanced` where the
-  // limbs show a lens blur of a pixel or more, which widens each caustic by
-  // its own width in azimuth (1/cos φ) where peak picking sees one blur:
-  // through a 2 px blur it called 3 sawtooths of 40 sinusoids, which the fits
-  // turn (FitModels; about 150 ms).
+  // `accurate` fits the models to the profile always; `balanced` where peak
+  // picking read a split, whose model and numbers the fits of the whole lobe
+  // then give (FitModels), or where the limbs show a lens blur of a pixel or
+  // more, which widens each caustic by its own width in azimuth (1/cos φ)
+  // where peak picking sees one blur.
   if (options.mode == Mode::kAccurate ||
-      (options.mode == Mode::kBalanced && cylinder->lens_blur_px >= kFitsFromLensBlurPx)) {
+      (options.mode == Mode::kBalanced &&
+       (peaks->split_resolved || cylinder->lens_blur_px >= kFitsFromLensBlurPx))) {
     FitModels(*peaks, acquisition, options, &estimate);
     if (absl::Status s = clock.Lap("fit"); !s.ok()) return s;
   }

@@ -124,8 +124,8 @@ void ExpectSinusoidEstimate(const Estimate& e, double tolerance_deg) {
   }
   EXPECT_EQ(selected, 1);
   // A sinusoid whose period is resolved is read from its comb of glints,
-  // otherwise from the profile's peaks.
-  EXPECT_EQ(e.method, e.wavelength_mm.resolved ? "comb-fit" : "peak-picking");
+  // otherwise from the least-squares fit of its lobe.
+  EXPECT_EQ(e.method, e.wavelength_mm.resolved ? "comb-fit" : "least-squares");
   // The comb fit's systematic share is its floors, its glint model's
   // mismatch and the limb's allowance, all common to other photographs of
   // the sample; what the photograph's noise scatters is the rest.
@@ -169,7 +169,7 @@ TEST(EstimateTest, FromPng16Bytes) {
   EXPECT_EQ(e->image.format, "png");
   EXPECT_EQ(e->image.bit_depth, 16);
   EXPECT_EQ(e->image.saturated_pixels, 0);
-  EXPECT_EQ(Stages(*e), (std::vector<std::string>{"decode", "detect", "profile", "peaks", "glints"}));
+  EXPECT_EQ(Stages(*e), (std::vector<std::string>{"decode", "detect", "profile", "peaks", "fit", "glints"}));
 }
 
 TEST(EstimateTest, FromImageMatchesFromBytes) {
@@ -177,7 +177,7 @@ TEST(EstimateTest, FromImageMatchesFromBytes) {
   absl::StatusOr<Estimate> from_image = EstimateFromImage(r.image, Lab(), EstimateOptions());
   ASSERT_TRUE(from_image.ok()) << from_image.status();
   ExpectSinusoidEstimate(*from_image, 1.0);
-  EXPECT_EQ(Stages(*from_image), (std::vector<std::string>{"detect", "profile", "peaks", "glints"}));
+  EXPECT_EQ(Stages(*from_image), (std::vector<std::string>{"detect", "profile", "peaks", "fit", "glints"}));
   EXPECT_EQ(from_image->image.format, "");
 
   absl::StatusOr<Estimate> from_bytes = EstimateFromBytes(
@@ -190,8 +190,9 @@ TEST(EstimateTest, FromImageMatchesFromBytes) {
   EXPECT_NEAR(from_image->cylinder.center_x_px, from_bytes->cylinder.center_x_px, 0.01);
 }
 
-// Fast mode: the same peaks, no glint stage, the wavelength left unanalysed
-// and said so.
+// Fast mode: the peaks alone, no lobe fit and no glint stage, the
+// wavelength left unanalysed and said so; the same model and a spacing
+// within the two readings' errors of balanced's.
 // The interrupt is asked after every stage, and its status ends the estimate.
 TEST(EstimateTest, AnInterruptStopsBetweenStagesWithItsStatus) {
   const Rendered& r = SinusoidRender();
@@ -220,7 +221,9 @@ TEST(EstimateTest, FastModeReadsThePeaksOnly) {
   ASSERT_TRUE(balanced.ok()) << balanced.status();
   EXPECT_EQ(Stages(*quick), (std::vector<std::string>{"detect", "profile", "peaks"}));
   EXPECT_EQ(quick->model, balanced->model);
-  EXPECT_EQ(quick->peak_spacing_rad.value, balanced->peak_spacing_rad.value);
+  EXPECT_NEAR(quick->peak_spacing_rad.value, balanced->peak_spacing_rad.value,
+              3.0 * std::hypot(quick->peak_spacing_rad.stderr_value,
+                               balanced->peak_spacing_rad.stderr_value));
   EXPECT_FALSE(quick->wavelength_mm.resolved);
   EXPECT_FALSE(quick->amplitude_mm.resolved);
   bool said = false;
@@ -269,11 +272,34 @@ TEST(EstimateTest, PerspectiveSawtooth) {
   EXPECT_NEAR(e->peak_spacing_rad.value / kDeg, 17.0615, 0.3);
   // Mirror point (α + v)/2 with v ≈ −0.39° at φ = 15°, D = 900 mm.
   EXPECT_NEAR(e->specular_azimuth_rad.value / kDeg, 14.8, 0.2);
-  // Peak picking's systematic share: at least the peaks' placement on the
-  // profile's bins, which moves with the geometry (not common).
+  // Read from the fit of the whole lobe, whose systematic share is the
+  // real sawtooth's shape (kSawtoothShapeFloor), common to the sample.
+  EXPECT_EQ(e->method, "least-squares");
   ExpectAllShares(*e);
-  EXPECT_GT(e->peak_spacing_rad.systematic, 0.0);
-  EXPECT_LT(e->peak_spacing_rad.common, e->peak_spacing_rad.systematic);
+  EXPECT_NEAR(e->peak_spacing_rad.common, kSawtoothShapeFloor * e->peak_spacing_rad.value,
+              0.01 * e->peak_spacing_rad.common);
+  EXPECT_DOUBLE_EQ(e->peak_spacing_rad.common, e->peak_spacing_rad.systematic);
+  EXPECT_LT(e->peak_spacing_rad.systematic, e->peak_spacing_rad.stderr_value);
+}
+
+// A rendered sawtooth whose corners are round (15 % of its arc turning
+// from one flank to the other, `weavefit render --corner-share`) is named a
+// sawtooth, its flanks' slope read within 1 % and within its errors.
+TEST(EstimateTest, ARoundCorneredSawtoothIsReadByItsFlanks) {
+  RenderScene scene = SinusoidScene();
+  scene.model = ProfileModel::kSawtooth;
+  scene.amplitude_mm = 0.2 * scene.wavelength_mm / 4.0;  // m = 0.2, 22.62°
+  scene.corner_share = 0.15;
+  scene.phase_angle_deg = 40.0;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, Lab(40.0), EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSawtooth) << ProfileModelName(e->model);
+  ASSERT_TRUE(e->max_slope.resolved);
+  EXPECT_EQ(e->method, "least-squares");
+  EXPECT_NEAR(e->max_slope.value / 0.2, 1.0, 0.01);
+  EXPECT_NEAR(e->max_slope.value, 0.2, 3.0 * e->max_slope.stderr_value);
 }
 
 // A sawtooth's valley is empty: the noise and texture on it (3,000 photons

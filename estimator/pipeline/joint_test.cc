@@ -162,12 +162,20 @@ TEST(JointTest, OnePhotographIsNotAJointEstimate) {
 }
 
 // One sawtooth sample (m = 0.2) photographed at the paper's three phase
-// angles: the joint error bar is smaller than every photograph's, and the
-// joint value lies within 3 of its standard errors of the truth.
+// angles: the joint's independent share (what does not repeat from one
+// photograph to the next) is smaller than the photographs' mean, its error
+// bar no larger than the best one's, and the joint value lies within 3 of
+// its standard errors of the truth.
+double Independent(const Quantity& q) {
+  const double s2 = q.stderr_value * q.stderr_value - q.common * q.common;
+  return s2 > 0.0 ? std::sqrt(s2) : 0.0;
+}
+
 TEST(JointTest, ThreePhaseAnglesOfOneRenderedSample) {
   std::vector<PhotographEstimate> photos;
   double truth = 0.0;
   double smallest_se = 1e9;
+  double mean_independent = 0.0;
   for (double alpha : {10.0, 60.0, 110.0}) {
     RenderScene scene;
     scene.width_px = 320;
@@ -188,13 +196,19 @@ TEST(JointTest, ThreePhaseAnglesOfOneRenderedSample) {
     ASSERT_TRUE(e.ok()) << e.status();
     ASSERT_TRUE(e->max_slope.resolved) << alpha;
     smallest_se = std::min(smallest_se, e->max_slope.stderr_value);
+    mean_independent += Independent(e->max_slope) / 3.0;
     photos.push_back(PhotographFrom(*e, "alpha " + std::to_string(alpha)));
   }
   absl::StatusOr<JointEstimate> j = CombineEstimates(photos);
   ASSERT_TRUE(j.ok()) << j.status();
   EXPECT_EQ(j->model, ProfileModel::kSawtooth);
   EXPECT_EQ(j->slope_photographs, 3);
-  EXPECT_LT(j->max_slope.stderr_value, smallest_se);
+  // What does not repeat from one photograph to the next averages down; the
+  // sawtooth's shape allowance (kSawtoothShapeFloor, 1 % of the spacing),
+  // common to the sample, does not, and where it dominates, as in these
+  // noise-free renders, the joint error stays at the best photograph's.
+  EXPECT_LT(Independent(j->max_slope), mean_independent);
+  EXPECT_LE(j->max_slope.stderr_value, 1.01 * smallest_se);
   EXPECT_NEAR(j->max_slope.value, truth, 3.0 * j->max_slope.stderr_value);
 }
 

@@ -18,15 +18,24 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-// Slope h′ of the thread profile at arc position s (mm).
+// Slope h′ of the thread profile at arc position s (mm). A sawtooth's
+// corners (at the crest, half a period in, and at the trough) turn the slope
+// linearly over `corner_share`/2 of a period each.
 double ThreadSlope(ProfileModel model, double max_slope, double wavelength_mm,
-                   double s_mm) {
+                   double s_mm, double corner_share) {
   const double cycles = s_mm / wavelength_mm;
   switch (model) {
     case ProfileModel::kSinusoid:
       return max_slope * std::cos(2.0 * M_PI * cycles);
-    case ProfileModel::kSawtooth:
-      return cycles - std::floor(cycles) < 0.5 ? max_slope : -max_slope;
+    case ProfileModel::kSawtooth: {
+      const double f = cycles - std::floor(cycles);
+      const double half_corner = 0.25 * corner_share;  // cycles either side of a corner
+      const double to_crest = 0.5 - f;
+      const double from_trough = f < 0.5 ? f : f - 1.0;
+      if (std::fabs(to_crest) < half_corner) return max_slope * to_crest / half_corner;
+      if (std::fabs(from_trough) < half_corner) return max_slope * from_trough / half_corner;
+      return f < 0.5 ? max_slope : -max_slope;
+    }
     case ProfileModel::kSmooth:
       break;
   }
@@ -34,7 +43,9 @@ double ThreadSlope(ProfileModel model, double max_slope, double wavelength_mm,
 }
 
 // Height of the thread profile at arc position s, in units of h0: from −1
-// at a trough to +1 at a crest (the integral of ThreadSlope).
+// at a trough to +1 at a crest (the integral of ThreadSlope; a sawtooth's
+// rounded corners, which lower it by at most corner_share/4 of h0 near the
+// crest and trough, are left out: it only shades the stray light).
 double ThreadHeight(ProfileModel model, double wavelength_mm, double s_mm) {
   const double cycles = s_mm / wavelength_mm;
   const double f = cycles - std::floor(cycles);
@@ -232,7 +243,8 @@ class Sampler {
         return t;
       }
     }
-    const double slope = ThreadSlope(scene_.model, m_, scene_.wavelength_mm, s_mm);
+    const double slope = ThreadSlope(scene_.model, m_, scene_.wavelength_mm, s_mm,
+                                     scene_.corner_share);
     const double beta = -std::atan(slope);
     const double t_mid = (across - 0.5 * g) / (1.0 - g);
     if (stray_) {
@@ -366,6 +378,9 @@ absl::Status RenderScene::Validate() const {
   }
   if (!(axial_glint_width >= 0 && axial_glint_width <= 1)) {
     return absl::InvalidArgumentError("axial_glint_width must be in [0, 1]");
+  }
+  if (!(corner_share >= 0 && corner_share < 1)) {
+    return absl::InvalidArgumentError("corner_share must be in [0, 1)");
   }
   if (!(axial_float_width >= 0 && axial_float_width < 1)) {
     return absl::InvalidArgumentError("axial_float_width must be in [0, 1)");
@@ -630,6 +645,7 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
   }
   optional("axialGlintWidth", s.axial_glint_width, defaults.axial_glint_width);
   optional("axialFloatWidth", s.axial_float_width, defaults.axial_float_width);
+  optional("cornerShare", s.corner_share, defaults.corner_share);
   optional("backgroundGradient", s.background_gradient, defaults.background_gradient);
   optional("backgroundGradientDeg", s.background_gradient_deg, defaults.background_gradient_deg);
   optional("blackLevel", s.black_level, defaults.black_level);

@@ -21,6 +21,10 @@ struct RenderScene {
   ProfileModel model = ProfileModel::kSinusoid;
   double wavelength_mm = 2.0;   // thread undulation period λ
   double amplitude_mm = 0.08;   // h0 (sinusoid h0·sin, sawtooth ±h0)
+  // A sawtooth's share of arc in its rounded corners, where the slope turns
+  // from one flank's to the other's at a constant rate (circular-arc
+  // corners, half the share at each); 0 = sharp corners.
+  double corner_share = 0.0;
   double diameter_mm = 46.0;
   double camera_distance_mm = 0.0;  // 0 = orthographic
   double phase_angle_deg = 10.0;    // signed, light on the right when > 0

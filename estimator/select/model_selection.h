@@ -1,0 +1,67 @@
+// Which profile model a photograph shows, decided in one place from the
+// candidates' scores (DESIGN.md §1, STYLE.md `select/`): peak picking's
+// reading of the lobe and the least-squares fits of each model to it.
+#ifndef WEAVEFIT_ESTIMATOR_SELECT_MODEL_SELECTION_H_
+#define WEAVEFIT_ESTIMATOR_SELECT_MODEL_SELECTION_H_
+
+#include <string>
+
+#include "estimator/fit/profile_fit.h"
+#include "estimator/optics/radiance.h"
+
+namespace weavefit {
+
+struct ModelSelectionOptions {
+  // The evidence, in BIC per independent bin, one split model's fit needs
+  // over the other's to overturn peak picking's reading (the BIC difference
+  // divided by the residuals' integrated correlation, ModelFit::
+  // correlation_bins, since the bins are not independent, and by the better
+  // fit's reduced chi-square where it exceeds 1, since then neither model
+  // explains the profile): 10 is "very
+  // strong" on Kass and Raftery's scale (2·ln of the Bayes factor). Between
+  // two fits this close the lobe does not tell the models apart, and peak
+  // picking's reading, which sees the glints and the level between the
+  // peaks, stands.
+  double min_split_evidence = 10.0;
+};
+
+// Peak picking's verdict on the lobe (PeakPickingResult's, in short).
+struct PeakReading {
+  bool split = false;
+  ProfileModel model = ProfileModel::kSmooth;
+  double spacing_rad = 0.0;
+  double spacing_stderr_rad = 0.0;
+};
+
+// What the profile shows, and whose numbers to report.
+struct ModelChoice {
+  ProfileModel model = ProfileModel::kSmooth;
+  // The fit (an index into ProfileFitResult::fits) whose split and mirror
+  // azimuth are reported; -1 keeps peak picking's.
+  int fit = -1;
+  // The BIC per independent bin by which the named split model's fit beats
+  // the other split model's (negative: it loses, kept on peak picking's
+  // word); 0 where no two split fits converged.
+  double evidence = 0.0;
+  // In a user's words, why: empty where peak picking's reading stands
+  // unchallenged.
+  std::string reason;
+};
+
+// Peak picking decides whether the lobe splits at all: a split the fits
+// find where it saw one peak, or one peak they prefer where it saw two, came
+// out 0.6-1.9° off with errors of 0.1-0.35° on the stability sweep (grazing
+// light, α = 140°; m = 0.04). Between the two split models the fits decide
+// on min_split_evidence. A split is reported from the chosen model's fit
+// only where that fit explains the profile better than one peak does and
+// its caustics stand where peak picking found the peaks (their spacings
+// within 3 of their combined errors: a heavily blurred sawtooth can mimic a
+// sinusoid's lobe with its caustics far inside the peaks, and a fit can
+// settle on a comb's inner teeth). `fits` may hold no converged fit (then
+// peak picking's reading stands).
+ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult& fits,
+                               const ModelSelectionOptions& options = {});
+
+}  // namespace weavefit
+
+#endif  // WEAVEFIT_ESTIMATOR_SELECT_MODEL_SELECTION_H_

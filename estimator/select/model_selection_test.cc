@@ -1,0 +1,152 @@
+// Unit tests of select/model_selection: which model the profile shows, from
+// peak picking's verdict and the lobe fits' BICs and residual correlation.
+#include "estimator/select/model_selection.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace weavefit {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+ModelFit Fit(ProfileModel model, double bic, double correlation_bins = 1.0,
+             bool converged = true) {
+  ModelFit f;
+  f.model = model;
+  // Caustics 20° apart (the split models), read to 0.1°.
+  if (model != ProfileModel::kSmooth) {
+    f.max_slope = std::tan(10.0 * kDeg);
+    f.max_slope_stderr = 0.05 * kDeg * (1.0 + f.max_slope * f.max_slope);
+  }
+  f.bic = bic;
+  f.correlation_bins = correlation_bins;
+  f.converged = converged;
+  return f;
+}
+
+// Peak picking's reading: `model` split 20° ± 1° apart, or one peak.
+PeakReading Read(ProfileModel model) {
+  if (model == ProfileModel::kSmooth) return {false, model, 0.0, 0.0};
+  return {true, model, 20.0 * kDeg, 1.0 * kDeg};
+}
+
+// SMOOTH, SINUSOID, SAWTOOTH, as FitProfileModels returns them, best set.
+ProfileFitResult Fits(double smooth, double sinusoid, double sawtooth, double tau = 1.0) {
+  ProfileFitResult r;
+  r.fits = {Fit(ProfileModel::kSmooth, smooth, tau), Fit(ProfileModel::kSinusoid, sinusoid, tau),
+            Fit(ProfileModel::kSawtooth, sawtooth, tau)};
+  for (std::size_t i = 0; i < r.fits.size(); ++i) {
+    if (r.best < 0 || r.fits[i].bic < r.fits[r.best].bic) r.best = static_cast<int>(i);
+  }
+  return r;
+}
+
+TEST(ChooseProfileModelTest, AgreeingFitGivesTheNumbers) {
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSawtooth), Fits(1100, 700, 45));
+  EXPECT_EQ(c.model, ProfileModel::kSawtooth);
+  EXPECT_EQ(c.fit, 2);
+  EXPECT_GT(c.evidence, 10.0);
+  EXPECT_TRUE(c.reason.empty());
+}
+
+TEST(ChooseProfileModelTest, DecisiveFitsOverturnPeakPickingsSplitModel) {
+  // A sinusoid read as a sawtooth: the sinusoid explains the lobe by 2,100
+  // BIC over residuals correlated across 30 bins, 70 per independent bin.
+  const ModelChoice c =
+      ChooseProfileModel(Read(ProfileModel::kSawtooth), Fits(10200, 1470, 3580, 30.0));
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, 1);
+  EXPECT_NEAR(c.evidence, (3580.0 - 1470.0) / 30.0, 1e-9);
+  EXPECT_NE(c.reason.find("SINUSOID, not the SAWTOOTH"), std::string::npos) << c.reason;
+}
+
+TEST(ChooseProfileModelTest, AFitWhoseCausticsMissThePeaksDoesNotOverturn) {
+  // A sinusoid's lobe that a blurred sawtooth explains better, its caustics
+  // 13° apart where peak picking found the peaks 20° ± 1° apart.
+  ProfileFitResult r = Fits(1900, 930, 550, 4.0);
+  r.fits[2].max_slope = std::tan(6.5 * kDeg);
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, -1);
+  EXPECT_NE(c.reason.find("caustics do not stand"), std::string::npos) << c.reason;
+  // Where they stand at the peaks, the same evidence overturns it.
+  r.fits[2].max_slope = std::tan(10.5 * kDeg);
+  EXPECT_EQ(ChooseProfileModel(Read(ProfileModel::kSinusoid), r).model, ProfileModel::kSawtooth);
+}
+
+TEST(ChooseProfileModelTest, AFitOnAnotherLobeGivesNoNumbers) {
+  // Peak picking's own model, fitted with its caustics 29° apart where the
+  // peaks stand 20° ± 1° apart: the model stays, the numbers are peak
+  // picking's.
+  ProfileFitResult r = Fits(5000, 900, 950, 4.0);
+  r.fits[1].max_slope = std::tan(14.5 * kDeg);
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, -1);
+  EXPECT_NE(c.reason.find("29.00 deg apart"), std::string::npos) << c.reason;
+}
+
+TEST(ChooseProfileModelTest, CorrelatedResidualsWeakenTheEvidence) {
+  // The same BIC difference over residuals correlated across 100 bins is 3
+  // per independent bin: peak picking's model and its numbers stand.
+  const ModelChoice c =
+      ChooseProfileModel(Read(ProfileModel::kSawtooth), Fits(5000, 1000, 1300, 100.0));
+  EXPECT_EQ(c.model, ProfileModel::kSawtooth);
+  EXPECT_EQ(c.fit, -1);
+  EXPECT_LT(c.evidence, 0.0);
+  EXPECT_NE(c.reason.find("short of"), std::string::npos) << c.reason;
+}
+
+TEST(ChooseProfileModelTest, FitsThatExplainNeitherModelDoNotDecide) {
+  // Both split fits leave residuals 15 times the noise model (a lobe cut by
+  // the limb): 22 BIC per correlated bin between them is 1.5 once that is
+  // counted, and peak picking's reading stands.
+  ProfileFitResult r = Fits(4514, 3633, 3768, 6.2);
+  for (ModelFit& f : r.fits) {
+    f.num_residuals = 249;
+    f.num_params = 7;
+    f.chi2 = 15.0 * 242;
+  }
+  r.fits[1].chi2 = 14.8 * 242;
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSawtooth), r);
+  EXPECT_EQ(c.model, ProfileModel::kSawtooth);
+  EXPECT_EQ(c.fit, -1);
+  EXPECT_NEAR(-c.evidence, (3768.0 - 3633.0) / (6.2 * 14.8), 1e-9);
+}
+
+TEST(ChooseProfileModelTest, OnePeakReadStaysOnePeak) {
+  // Peak picking saw one peak: a split fit does not overturn it.
+  ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSmooth), Fits(900, 400, 500));
+  EXPECT_EQ(c.model, ProfileModel::kSmooth);
+  EXPECT_EQ(c.fit, -1);
+  EXPECT_NE(c.reason.find("one peak is kept"), std::string::npos) << c.reason;
+  // Where the smooth fit is best it gives the mirror azimuth.
+  c = ChooseProfileModel(Read(ProfileModel::kSmooth), Fits(300, 400, 500));
+  EXPECT_EQ(c.model, ProfileModel::kSmooth);
+  EXPECT_EQ(c.fit, 0);
+}
+
+TEST(ChooseProfileModelTest, SplitFitWorseThanOnePeakGivesNoNumbers) {
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), Fits(300, 400, 900));
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, -1);
+  EXPECT_NE(c.reason.find("less well than one peak"), std::string::npos) << c.reason;
+}
+
+TEST(ChooseProfileModelTest, UnconvergedFitsLeavePeakPickingAlone) {
+  ProfileFitResult r = Fits(300, 200, 100);
+  for (ModelFit& f : r.fits) f.converged = false;
+  r.best = -1;
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, -1);
+  // Only the picked model's fit converged: it gives the numbers.
+  r.fits[1].converged = true;
+  r.best = 1;
+  EXPECT_EQ(ChooseProfileModel(Read(ProfileModel::kSinusoid), r).fit, 1);
+}
+
+}  // namespace
+}  // namespace weavefit
