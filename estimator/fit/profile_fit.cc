@@ -16,11 +16,8 @@ namespace {
 // Parameters besides the max slope, in order: mirror azimuth (rad), blur σ
 // (rad), scale, background level, background slope (per rad), scatter level.
 constexpr int kNuisance = 6;
-// A sawtooth's share of arc in its rounded corners: fitted from 3 %, at
-// most half (beyond, the corners are the profile and the flanks the
-// exception: no sawtooth).
+// A sawtooth's share of arc in its rounded corners: fitted from 3 %.
 constexpr double kCornerShareStart = 0.03;
-constexpr double kMaxCornerShare = 0.25;
 // Floor added in quadrature to the blur, so that an unblurred caustic never
 // makes the model singular (0.02°).
 constexpr double kBlurFloorRad = 0.02 * M_PI / 180.0;

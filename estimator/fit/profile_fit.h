@@ -40,6 +40,14 @@ struct ProfileFitOptions {
   absl::Status Validate() const;
 };
 
+// The largest share of its arc a fitted sawtooth may give to its rounded
+// corners (ModelFit::corner_share). Beyond a quarter the corners are no
+// longer a detail of flat facets: a fit that wants more is filling a level
+// between the peaks fuller than a sawtooth's (a sinusoid's, or glints a
+// comb leaves there), and the fitted corners already took up to 0.43 on a
+// sinusoid.
+constexpr double kMaxCornerShare = 0.25;
+
 // One candidate model fitted to the profile, in library units.
 struct ModelFit {
   ProfileModel model = ProfileModel::kSmooth;

@@ -68,17 +68,16 @@ inline int SinusoidQuadratureNodes(double max_slope, double blur_rad) {
   return static_cast<int>(std::clamp(std::ceil(wanted), 64.0, 8192.0));
 }
 
-// Calls f(i, sin θ_i) for each of n quadrature nodes θ_i = 2π(i + ½)/n
-// whose tilt arctan(m·sin θ_i) lies within `reach` of β (m ≥ 0): those
-// where sin θ lies in [tan(β − reach), tan(β + reach)]/m, two runs of
-// indices found by arcsine, so the cost is the nodes near β, not all n.
+// Calls f(i) for each of n quadrature nodes θ_i = 2π(i + ½)/n whose tilt
+// arctan(m·sin θ_i) lies within `reach` of β (m ≥ 0): those where sin θ
+// lies in [tan(β − reach), tan(β + reach)]/m, two runs of indices found by
+// arcsine, so the cost is the nodes near β, not all n.
 template <typename F>
 void ForSinusoidNodesNear(double beta, double max_slope, double reach, int n, F&& f) {
   const double kPi = 3.14159265358979323846;
-  auto node_sin = [&](int i) { return std::sin(2.0 * kPi * (i + 0.5) / n); };
   if (!(max_slope > 1e-12)) {
     if (std::fabs(beta) < reach) {
-      for (int i = 0; i < n; ++i) f(i, node_sin(i));
+      for (int i = 0; i < n; ++i) f(i);
     }
     return;
   }
@@ -97,11 +96,27 @@ void ForSinusoidNodesNear(double beta, double max_slope, double reach, int n, F&
   const int d2 = static_cast<int>(std::floor((kPi - a) * per - 0.5));
   c2 = std::max(c2, d1 + 1);        // the runs meet at θ = π/2
   c1 = std::max(c1, d2 - n + 1);    // ... and at θ = 3π/2 ≡ −π/2
-  for (int k = c1; k <= d1; ++k) {
-    const int i = k < 0 ? k + n : k;
-    f(i, node_sin(i));
+  for (int k = c1; k <= d1; ++k) f(k < 0 ? k + n : k);
+  for (int i = c2; i <= d2; ++i) f(i);
+}
+
+// sin θ_i of SinusoidTiltDensity's node i of n.
+inline double SinusoidNodeSin(int i, int n) {
+  return std::sin(2.0 * 3.14159265358979323846 * (i + 0.5) / n);
+}
+
+// The node tilts arctan(|m|·sin θ_i) of n nodes. They depend on m only, and
+// peak picking's corrections evaluate many azimuths at one m, so the last
+// m's are kept per thread.
+inline const std::vector<double>& SinusoidNodeTilts(double max_slope, int n) {
+  thread_local std::vector<double> tilts;
+  thread_local double cached_slope = std::numeric_limits<double>::quiet_NaN();
+  if (!(max_slope == cached_slope) || static_cast<int>(tilts.size()) != n) {
+    tilts.resize(n);
+    for (int i = 0; i < n; ++i) tilts[i] = std::atan(std::fabs(max_slope) * SinusoidNodeSin(i, n));
+    cached_slope = max_slope;
   }
-  for (int i = c2; i <= d2; ++i) f(i, node_sin(i));
+  return tilts;
 }
 
 // Blurred tilt density p_σ(β) of a sinusoid h0·sin(kx) with max slope m =
@@ -109,7 +124,8 @@ void ForSinusoidNodesNear(double beta, double max_slope, double reach, int n, F&
 // sec²β / (π·sqrt(m² − tan²β)) for |tan β| < m; substituting tan β =
 // m·sin θ makes it uniform in θ, so the blurred density is the average of
 // G(β − arctan(m·sin θ); σ) over θ in one period (midpoint rule, which is
-// spectrally accurate for this smooth periodic integrand).
+// spectrally accurate for this smooth periodic integrand). The sign of m
+// only renumbers the nodes (θ → θ + π).
 //
 // Only the nodes whose tilt lies within 9σ of β (by their values) are
 // summed: a node beyond adds a Gaussian factor below 3e-18, to the value and
@@ -119,23 +135,27 @@ template <typename T>
 T SinusoidTiltDensity(const T& beta, const T& max_slope, const T& blur_rad) {
   using std::atan;
   const double m = ScalarValue(max_slope);
+  const double sign = m < 0.0 ? -1.0 : 1.0;
   const int n = SinusoidQuadratureNodes(m, ScalarValue(blur_rad));
   T sum(0.0);
   ForSinusoidNodesNear(ScalarValue(beta), std::fabs(m), 9.0 * ScalarValue(blur_rad), n,
-                       [&](int, double s) {
-                         sum += GaussianDensity(T(beta - atan(max_slope * T(s))), blur_rad);
+                       [&](int i) {
+                         const T tilt = atan(max_slope * T(sign * SinusoidNodeSin(i, n)));
+                         sum += GaussianDensity(T(beta - tilt), blur_rad);
                        });
   return sum / T(n);
 }
 
-// The same for plain doubles, the hot path of peak picking's corrections.
+// The same for plain doubles, the hot path of peak picking's corrections,
+// with the node tilts kept (SinusoidNodeTilts). Equal to the template to
+// rounding.
 inline double SinusoidTiltDensity(const double& beta, const double& max_slope,
                                   const double& blur_rad) {
   const int n = SinusoidQuadratureNodes(max_slope, blur_rad);
+  const std::vector<double>& tilts = SinusoidNodeTilts(max_slope, n);
   double sum = 0.0;
-  ForSinusoidNodesNear(beta, std::fabs(max_slope), 9.0 * blur_rad, n, [&](int, double s) {
-    sum += GaussianDensity(beta - std::atan(max_slope * s), blur_rad);
-  });
+  ForSinusoidNodesNear(beta, std::fabs(max_slope), 9.0 * blur_rad, n,
+                       [&](int i) { sum += GaussianDensity(beta - tilts[i], blur_rad); });
   return sum / n;
 }
 

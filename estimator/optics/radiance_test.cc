@@ -144,18 +144,25 @@ TEST(RadianceTest, SinusoidDensitySumsTheNodesNearTheTilt) {
     return sum / n;
   };
   for (int n : {64, 65, 66, 67, 1000}) {
-    for (double m : {0.0, 0.05, 0.4, 2.5}) {
+    for (double m : {0.0, 0.05, 0.4, 2.5, -0.4}) {
       for (double sigma : {0.002, 0.02, 0.2}) {
         for (double beta : {-1.5, -0.5, -0.3, -0.0499, 0.0, 0.1, 0.38, 0.3805, 1.19, 1.56}) {
           double windowed = 0.0;
-          ForSinusoidNodesNear(beta, m, 9.0 * sigma, n, [&](int i, double s) {
-            EXPECT_NEAR(s, std::sin(2.0 * M_PI * (i + 0.5) / n), 1e-15);
-            windowed += GaussianDensity(beta - std::atan(m * s), sigma);
+          ForSinusoidNodesNear(beta, std::fabs(m), 9.0 * sigma, n, [&](int i) {
+            windowed += GaussianDensity(beta - std::atan(std::fabs(m) * SinusoidNodeSin(i, n)),
+                                        sigma);
           });
           windowed /= n;
           const double full = every_node(beta, m, sigma, n);
           EXPECT_NEAR(windowed, full, 1e-12 * std::max(full, 1.0))
               << "n " << n << " m " << m << " sigma " << sigma << " beta " << beta;
+          // The density itself, in doubles and in Jets, is that sum over its
+          // own nodes.
+          const double own = every_node(beta, m, sigma, SinusoidQuadratureNodes(m, sigma));
+          EXPECT_NEAR(SinusoidTiltDensity(beta, m, sigma), own, 1e-12 * std::max(own, 1.0));
+          using J = ceres::Jet<double, 1>;
+          EXPECT_NEAR(SinusoidTiltDensity(J(beta), J(m, 0), J(sigma)).a, own,
+                      1e-12 * std::max(own, 1.0));
         }
       }
     }

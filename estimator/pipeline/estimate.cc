@@ -1018,7 +1018,9 @@ void AddCurves(const PeakPickingResult& peaks, const Acquisition& acquisition,
 //   of every weave phase in view, and the caustic's outermost glint stands
 //   anywhere within a tooth gap g inside the caustic, as the threads' phase
 //   there falls. Uniform over [0, g] on each side independently, that is
-//   g/√12 per caustic: g/√6 on the spacing, g/√24 on the mirror azimuth.
+//   g/√12 per caustic: g/√6 on the spacing.
+// Either shares the two caustics independently, so the mirror azimuth, their
+// midpoint, has half the spacing's allowance (g/√24 for the comb).
 void ApplyLobeFit(const ModelFit& fit, const PeakPickingResult& peaks, Estimate* estimate) {
   estimate->method = "least-squares";
   if (fit.model == ProfileModel::kSmooth) {
@@ -1034,7 +1036,9 @@ void ApplyLobeFit(const ModelFit& fit, const PeakPickingResult& peaks, Estimate*
   const double common = sawtooth ? kSawtoothShapeFloor * spacing : 0.0;
   const double gap = sawtooth ? 0.0 : peaks.comb_gap_rad;
   const double sys = std::hypot(common, gap / std::sqrt(6.0));
-  const double mirror_sys = gap / std::sqrt(24.0);
+  // Each caustic's own share: the spacing's over √2; their midpoint's, half
+  // the spacing's.
+  const double mirror_sys = 0.5 * sys;
   const double sec = 1.0 / std::cos(0.5 * spacing);
   const double per_spacing = 0.5 * sec * sec;
   const double dspacing = std::hypot(statistical, sys);
@@ -1059,12 +1063,18 @@ void ApplyLobeFit(const ModelFit& fit, const PeakPickingResult& peaks, Estimate*
 void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
                const EstimateOptions& options, Estimate* estimate) {
   const ProfileFitOptions fit_options = FitOptionsFor(peaks, options, estimate->cylinder);
-  // Starting slopes: peak picking's, and those of the nearest model shapes
-  // in the FLANN bank (estimator/init), which are also reported as
-  // candidates. Per model the fit with the lowest BIC over the starts is kept.
+  // Starting slopes: peak picking's, and in `accurate` those of the nearest
+  // model shapes in the FLANN bank (estimator/init), which are also reported
+  // as candidates. Per model the fit with the lowest BIC over the starts is
+  // kept. (`balanced` starts from peak picking's alone: a second start
+  // doubles the fits' time, and the fits' numbers stand only where their
+  // caustics meet peak picking's peaks anyway, ChooseProfileModel.)
   std::vector<double> starts = {peaks.split_resolved ? peaks.max_slope : 0.2};
-  absl::StatusOr<std::vector<BankMatch>> near = ProfileBank::Default().NearestPerModel(
-      estimate->profile, peaks.mirror_rad, acquisition.phase_angle_rad);
+  absl::StatusOr<std::vector<BankMatch>> near =
+      options.mode == Mode::kAccurate
+          ? ProfileBank::Default().NearestPerModel(estimate->profile, peaks.mirror_rad,
+                                                   acquisition.phase_angle_rad)
+          : absl::StatusOr<std::vector<BankMatch>>(std::vector<BankMatch>{});
   if (near.ok() && !near->empty()) {
     const BankMatch* nearest = &near->front();
     for (const BankMatch& m : *near) {
@@ -1358,11 +1368,21 @@ absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
           estimate.cylinder.radius_px));
     }
     if (miss > 3.0 * peaks->mirror_stderr_rad + 1.0 * kDeg) {
+      // Either the reading or the stated geometry is that far off, and this
+      // photograph cannot tell which (a clipped smooth lobe's plateau read
+      // 3.8° from α/2 with an error of 0.19°): the mirror azimuth is
+      // reported as read, with the disagreement counted in its error.
+      Quantity& mirror = estimate.specular_azimuth_rad;
+      const double disagreement = std::fabs(mirror.value - expected);
+      const double sys = std::hypot(mirror.systematic, disagreement);
+      mirror = {mirror.value, std::hypot(mirror.Statistical(), sys), true, 0.0, sys,
+                mirror.common};
       estimate.warnings.push_back(absl::StrFormat(
           "the mirror azimuth %.2f deg is %.2f deg from half the stated phase "
-          "angle (%.2f deg), more than its error explains: check the phase "
-          "angle and its sign (positive = light on the image's right)",
-          peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg));
+          "angle (%.2f deg), more than its error explains, and its error counts that "
+          "difference: check the phase angle and its sign (positive = light on the image's "
+          "right)",
+          mirror.value / kDeg, disagreement / kDeg, expected / kDeg));
     }
     // Several degrees beyond its error the lobe read is not what the stated
     // geometry makes, and its peaks cannot be trusted either: α = −90°,

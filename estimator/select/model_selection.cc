@@ -42,6 +42,13 @@ bool AtThePeaks(const ModelFit& fit, const PeakReading& peaks) {
          3.0 * std::hypot(stderr_rad, peaks.spacing_stderr_rad);
 }
 
+// A sawtooth fit whose rounded corners take the most the model allows
+// (kMaxCornerShare): the level between the peaks is fuller than a
+// sawtooth's, and its numbers are not a sawtooth's reading.
+bool CornersFillTheLobe(const ModelFit& fit) {
+  return fit.model == ProfileModel::kSawtooth && fit.corner_share >= 0.99 * kMaxCornerShare;
+}
+
 }  // namespace
 
 ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult& fits,
@@ -69,7 +76,7 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
   // one peak, and with its caustics where peak picking found the peaks.
   auto reads_the_split = [&](int i) {
     return i >= 0 && (smooth < 0 || fits.fits[i].bic < fits.fits[smooth].bic) &&
-           AtThePeaks(fits.fits[i], peaks);
+           AtThePeaks(fits.fits[i], peaks) && !CornersFillTheLobe(fits.fits[i]);
   };
   if (sinusoid >= 0 && sawtooth >= 0) {
     const int other = named == sinusoid ? sawtooth : sinusoid;
@@ -98,7 +105,8 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
           ProfileModelName(b.model), ProfileModelName(picked), for_other,
           for_other < options.min_split_evidence
               ? absl::StrFormat(", short of the %.0f that decides", options.min_split_evidence)
-              : std::string(", but its caustics do not stand where peak picking found the peaks"));
+              : std::string(", but its caustics do not stand where peak picking found the "
+                            "peaks, or its corners fill the lobe"));
       return choice;
     }
   }
@@ -106,8 +114,9 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
     choice.fit = named;
   } else if (named >= 0) {
     choice.reason = absl::StrFormat(
-        "the %s fit explains the profile less well than one peak, or puts its caustics %.2f deg "
-        "apart where peak picking found the peaks %.2f deg apart; peak picking's split is kept",
+        "the %s fit explains the profile less well than one peak, fills it with its corners, "
+        "or puts its caustics %.2f deg apart where peak picking found the peaks %.2f deg apart; "
+        "peak picking's split is kept",
         ProfileModelName(choice.model), PeakSpacingRad(fits.fits[named].max_slope) / kDegree,
         peaks.spacing_rad / kDegree);
   }

@@ -88,6 +88,21 @@ TEST(ChooseProfileModelTest, AFitOnAnotherLobeGivesNoNumbers) {
   EXPECT_NE(c.reason.find("29.00 deg apart"), std::string::npos) << c.reason;
 }
 
+TEST(ChooseProfileModelTest, ASawtoothWhoseCornersFillTheLobeIsNoSawtooth) {
+  // The sawtooth explains a sinusoid's comb-filled lobe better only with
+  // its corners at the most the model allows: no overturn.
+  ProfileFitResult r = Fits(77700, 17950, 11100, 5.0);
+  r.fits[2].corner_share = kMaxCornerShare;
+  ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, -1);
+  // With corners of a tenth of its arc, it does.
+  r.fits[2].corner_share = 0.1;
+  c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSawtooth);
+  EXPECT_EQ(c.fit, 2);
+}
+
 TEST(ChooseProfileModelTest, CorrelatedResidualsWeakenTheEvidence) {
   // The same BIC difference over residuals correlated across 100 bins is 3
   // per independent bin: peak picking's model and its numbers stand.
