@@ -1134,7 +1134,9 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
     estimate->candidates.push_back({f.model, "least-squares (BIC)", f.converged ? f.bic : 1e300, false});
   }
   const ModelChoice choice = ChooseProfileModel(
-      {peaks.split_resolved, peaks.model, peaks.spacing_rad, peaks.spacing_stderr_rad}, *fits);
+      {peaks.split_resolved, peaks.model, peaks.spacing_rad, peaks.spacing_stderr_rad,
+       peaks.smoothing_rad, peaks.comb_gap_rad},
+      *fits);
   if (!choice.reason.empty()) estimate->warnings.push_back("model: " + choice.reason);
   estimate->model = choice.model;
   if (choice.fit < 0) return;

@@ -49,6 +49,16 @@ bool CornersFillTheLobe(const ModelFit& fit) {
   return fit.model == ProfileModel::kSawtooth && fit.corner_share >= 0.99 * kMaxCornerShare;
 }
 
+// Whether a split fit's lobe can tell a sinusoid from a sawtooth: its
+// caustics far enough apart against its blur and against a comb's teeth.
+bool TellsTheModelsApart(const ModelFit& fit, const PeakReading& peaks,
+                         const ModelSelectionOptions& options) {
+  const double spacing = PeakSpacingRad(fit.max_slope);
+  const double blur = std::hypot(fit.blur_rad, peaks.smoothing_rad);
+  return spacing >= options.min_split_per_blur * blur &&
+         spacing >= options.min_teeth_between_caustics * peaks.comb_gap_rad;
+}
+
 }  // namespace
 
 ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult& fits,
@@ -85,7 +95,8 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
     const double tau = std::max({a.correlation_bins, b.correlation_bins, 1.0});
     const double for_other = (a.bic - b.bic) / (tau * Overdispersion(a, b));
     choice.evidence = -for_other;
-    if (for_other >= options.min_split_evidence && reads_the_split(other)) {
+    if (for_other >= options.min_split_evidence && reads_the_split(other) &&
+        TellsTheModelsApart(b, peaks, options)) {
       choice.model = b.model;
       choice.evidence = for_other;
       choice.fit = other;
@@ -106,7 +117,8 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
           for_other < options.min_split_evidence
               ? absl::StrFormat(", short of the %.0f that decides", options.min_split_evidence)
               : std::string(", but its caustics do not stand where peak picking found the "
-                            "peaks, or its corners fill the lobe"));
+                            "peaks, its corners fill the lobe, or the lobe is too blurred or "
+                            "its comb too coarse to tell the two apart"));
       return choice;
     }
   }

@@ -23,6 +23,20 @@ struct ModelSelectionOptions {
   // picking's reading, which sees the glints and the level between the
   // peaks, stands.
   double min_split_evidence = 10.0;
+  // The two split models differ in how the level falls from each caustic
+  // toward the middle (a sinusoid's inner shoulder, a sawtooth's flank and
+  // corners). They are told apart only where the caustics stand this many
+  // blurs (the fit's, with the smoothing) apart: a sinusoid of m = 0.04
+  // whose caustics stood 5 blurs apart was fitted better by a sawtooth
+  // with rounded corners (stability sweep), where the overturns needed on
+  // photographs stood 17-34 apart.
+  double min_split_per_blur = 10.0;
+  // ... and where a comb of glints puts this many teeth between them: a
+  // coarse comb is the glints of a few weave phases, not the density the
+  // models describe (a sinusoid of 32 px per period, 4.5 teeth between its
+  // caustics, was fitted better by a sawtooth 9° short; the overturns
+  // needed stood 17-34 teeth apart).
+  double min_teeth_between_caustics = 8.0;
 };
 
 // Peak picking's verdict on the lobe (PeakPickingResult's, in short).
@@ -31,6 +45,8 @@ struct PeakReading {
   ProfileModel model = ProfileModel::kSmooth;
   double spacing_rad = 0.0;
   double spacing_stderr_rad = 0.0;
+  double smoothing_rad = 0.0;  // the profile's smoothing (σ), which the fits share
+  double comb_gap_rad = 0.0;   // a comb of glints' tooth spacing; 0 = none
 };
 
 // What the profile shows, and whose numbers to report.
@@ -52,7 +68,8 @@ struct ModelChoice {
 // find where it saw one peak, or one peak they prefer where it saw two, came
 // out 0.6-1.9° off with errors of 0.1-0.35° on the stability sweep (grazing
 // light, α = 140°; m = 0.04). Between the two split models the fits decide
-// on min_split_evidence. A split is reported from the chosen model's fit
+// on min_split_evidence, where their lobe can tell the two apart
+// (min_split_per_blur, min_teeth_between_caustics). A split is reported from the chosen model's fit
 // only where that fit explains the profile better than one peak does and
 // its caustics stand where peak picking found the peaks (their spacings
 // within 3 of their combined errors: a heavily blurred sawtooth can mimic a

@@ -28,8 +28,8 @@ ModelFit Fit(ProfileModel model, double bic, double correlation_bins = 1.0,
 
 // Peak picking's reading: `model` split 20° ± 1° apart, or one peak.
 PeakReading Read(ProfileModel model) {
-  if (model == ProfileModel::kSmooth) return {false, model, 0.0, 0.0};
-  return {true, model, 20.0 * kDeg, 1.0 * kDeg};
+  if (model == ProfileModel::kSmooth) return {false, model, 0.0, 0.0, 0.0, 0.0};
+  return {true, model, 20.0 * kDeg, 1.0 * kDeg, 0.25 * kDeg, 0.0};
 }
 
 // SMOOTH, SINUSOID, SAWTOOTH, as FitProfileModels returns them, best set.
@@ -101,6 +101,23 @@ TEST(ChooseProfileModelTest, ASawtoothWhoseCornersFillTheLobeIsNoSawtooth) {
   c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
   EXPECT_EQ(c.model, ProfileModel::kSawtooth);
   EXPECT_EQ(c.fit, 2);
+}
+
+TEST(ChooseProfileModelTest, ABlurredOrCoarseCombedLobeDoesNotDecide) {
+  ProfileFitResult r = Fits(5000, 900, 300, 4.0);
+  PeakReading peaks = Read(ProfileModel::kSinusoid);
+  ASSERT_EQ(ChooseProfileModel(peaks, r).model, ProfileModel::kSawtooth);
+  // The sawtooth's caustics 20° apart through a blur of 2.5°: 8 blurs.
+  r.fits[2].blur_rad = 2.45 * kDeg;
+  EXPECT_EQ(ChooseProfileModel(peaks, r).model, ProfileModel::kSinusoid);
+  // A comb of glints 3° apart: under 7 teeth between the caustics.
+  r.fits[2].blur_rad = 0.0;
+  peaks.comb_gap_rad = 3.0 * kDeg;
+  const ModelChoice c = ChooseProfileModel(peaks, r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_NE(c.reason.find("comb too coarse"), std::string::npos) << c.reason;
+  peaks.comb_gap_rad = 2.0 * kDeg;
+  EXPECT_EQ(ChooseProfileModel(peaks, r).model, ProfileModel::kSawtooth);
 }
 
 TEST(ChooseProfileModelTest, CorrelatedResidualsWeakenTheEvidence) {
