@@ -42,6 +42,17 @@ bool AtThePeaks(const ModelFit& fit, const PeakReading& peaks) {
          3.0 * std::hypot(stderr_rad, peaks.spacing_stderr_rad);
 }
 
+// Whether a fit's mirror azimuth stands where the stated geometry puts it:
+// within 3 of its errors and a degree (a smooth cylinder's brightest column
+// sits a little off α/2), the allowance peak picking's mirror has too
+// (EstimateFromLuminance). A fit that shifted the lobe to explain the
+// profile (a sinusoid 3.7° off α/2 explaining a sawtooth whose outer
+// caustic met the limb) is not reading the lobe the acquisition makes.
+bool AtTheMirror(const ModelFit& fit, const PeakReading& peaks) {
+  return std::fabs(fit.mirror_rad - peaks.geometry_mirror_rad) <=
+         3.0 * fit.mirror_stderr_rad + kDegree;
+}
+
 // A sawtooth fit whose rounded corners take the most the model allows
 // (kMaxCornerShare): the level between the peaks is fuller than a
 // sawtooth's, and its numbers are not a sawtooth's reading.
@@ -86,7 +97,8 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
   // one peak, and with its caustics where peak picking found the peaks.
   auto reads_the_split = [&](int i) {
     return i >= 0 && (smooth < 0 || fits.fits[i].bic < fits.fits[smooth].bic) &&
-           AtThePeaks(fits.fits[i], peaks) && !CornersFillTheLobe(fits.fits[i]);
+           AtThePeaks(fits.fits[i], peaks) && !CornersFillTheLobe(fits.fits[i]) &&
+           AtTheMirror(fits.fits[i], peaks);
   };
   if (sinusoid >= 0 && sawtooth >= 0) {
     const int other = named == sinusoid ? sawtooth : sinusoid;
@@ -117,8 +129,9 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
           for_other < options.min_split_evidence
               ? absl::StrFormat(", short of the %.0f that decides", options.min_split_evidence)
               : std::string(", but its caustics do not stand where peak picking found the "
-                            "peaks, its corners fill the lobe, or the lobe is too blurred or "
-                            "its comb too coarse to tell the two apart"));
+                            "peaks or the mirror azimuth, its corners fill the lobe, or the "
+                            "lobe is too blurred or its comb too coarse to tell the two "
+                            "apart"));
       return choice;
     }
   }
@@ -127,8 +140,8 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
   } else if (named >= 0) {
     choice.reason = absl::StrFormat(
         "the %s fit explains the profile less well than one peak, fills it with its corners, "
-        "or puts its caustics %.2f deg apart where peak picking found the peaks %.2f deg apart; "
-        "peak picking's split is kept",
+        "stands off the mirror azimuth the acquisition makes, or puts its caustics %.2f deg "
+        "apart where peak picking found the peaks %.2f deg apart; peak picking's split is kept",
         ProfileModelName(choice.model), PeakSpacingRad(fits.fits[named].max_slope) / kDegree,
         peaks.spacing_rad / kDegree);
   }

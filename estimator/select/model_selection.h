@@ -47,6 +47,8 @@ struct PeakReading {
   double spacing_stderr_rad = 0.0;
   double smoothing_rad = 0.0;  // the profile's smoothing (σ), which the fits share
   double comb_gap_rad = 0.0;   // a comb of glints' tooth spacing; 0 = none
+  // Where the stated acquisition puts the mirror azimuth, (α + v)/2.
+  double geometry_mirror_rad = 0.0;
 };
 
 // What the profile shows, and whose numbers to report.
@@ -70,8 +72,10 @@ struct ModelChoice {
 // light, α = 140°; m = 0.04). Between the two split models the fits decide
 // on min_split_evidence, where their lobe can tell the two apart
 // (min_split_per_blur, min_teeth_between_caustics). A split is reported from the chosen model's fit
-// only where that fit explains the profile better than one peak does and
-// its caustics stand where peak picking found the peaks (their spacings
+// only where that fit explains the profile better than one peak does, its
+// mirror azimuth stands where the stated geometry puts it (within 3 of its
+// errors and a degree, as peak picking's must), and its caustics stand
+// where peak picking found the peaks (their spacings
 // within 3 of their combined errors: a heavily blurred sawtooth can mimic a
 // sinusoid's lobe with its caustics far inside the peaks, and a fit can
 // settle on a comb's inner teeth). `fits` may hold no converged fit (then

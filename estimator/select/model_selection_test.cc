@@ -28,8 +28,8 @@ ModelFit Fit(ProfileModel model, double bic, double correlation_bins = 1.0,
 
 // Peak picking's reading: `model` split 20° ± 1° apart, or one peak.
 PeakReading Read(ProfileModel model) {
-  if (model == ProfileModel::kSmooth) return {false, model, 0.0, 0.0, 0.0, 0.0};
-  return {true, model, 20.0 * kDeg, 1.0 * kDeg, 0.25 * kDeg, 0.0};
+  if (model == ProfileModel::kSmooth) return {false, model, 0.0, 0.0, 0.0, 0.0, 0.0};
+  return {true, model, 20.0 * kDeg, 1.0 * kDeg, 0.25 * kDeg, 0.0, 0.0};
 }
 
 // SMOOTH, SINUSOID, SAWTOOTH, as FitProfileModels returns them, best set.
@@ -118,6 +118,22 @@ TEST(ChooseProfileModelTest, ABlurredOrCoarseCombedLobeDoesNotDecide) {
   EXPECT_NE(c.reason.find("comb too coarse"), std::string::npos) << c.reason;
   peaks.comb_gap_rad = 2.0 * kDeg;
   EXPECT_EQ(ChooseProfileModel(peaks, r).model, ProfileModel::kSawtooth);
+}
+
+TEST(ChooseProfileModelTest, AFitOffTheMirrorAzimuthDoesNotRead) {
+  // The sinusoid explains a sawtooth's lobe better by standing 3.7° off
+  // where the acquisition puts the mirror (error 0.33°).
+  ProfileFitResult r = Fits(3700, 300, 1000, 3.5);
+  r.fits[1].mirror_rad = 3.7 * kDeg;
+  r.fits[1].mirror_stderr_rad = 0.33 * kDeg;
+  ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSawtooth), r);
+  EXPECT_EQ(c.model, ProfileModel::kSawtooth);
+  EXPECT_EQ(c.fit, -1);
+  // 1.5° off is within 3 errors and a degree.
+  r.fits[1].mirror_rad = 1.5 * kDeg;
+  c = ChooseProfileModel(Read(ProfileModel::kSawtooth), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  EXPECT_EQ(c.fit, 1);
 }
 
 TEST(ChooseProfileModelTest, CorrelatedResidualsWeakenTheEvidence) {
