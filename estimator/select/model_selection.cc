@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "absl/strings/str_format.h"
 
@@ -70,6 +71,35 @@ bool TellsTheModelsApart(const ModelFit& fit, const PeakReading& peaks,
          spacing >= options.min_teeth_between_caustics * peaks.comb_gap_rad;
 }
 
+// Why a split fit does not read the split (or, with `deciding`, cannot
+// tell the two split models apart), in a user's words; empty where it does.
+std::string WhyNotRead(const ModelFit& fit, const ModelFit* smooth, const PeakReading& peaks,
+                       const ModelSelectionOptions& options, bool deciding) {
+  const double spacing = PeakSpacingRad(fit.max_slope);
+  if (smooth != nullptr && !(fit.bic < smooth->bic)) {
+    return "it explains the profile less well than one peak";
+  }
+  if (!AtThePeaks(fit, peaks)) {
+    return absl::StrFormat("its caustics stand %.2f deg apart where peak picking found the "
+                           "peaks %.2f deg apart",
+                           spacing / kDegree, peaks.spacing_rad / kDegree);
+  }
+  if (!AtTheMirror(fit, peaks)) {
+    return absl::StrFormat("its mirror azimuth stands %.2f deg from where the acquisition puts "
+                           "it (%.2f deg)",
+                           std::fabs(fit.mirror_rad - peaks.geometry_mirror_rad) / kDegree,
+                           peaks.geometry_mirror_rad / kDegree);
+  }
+  if (CornersFillTheLobe(fit)) {
+    return "its rounded corners fill a quarter of its arc, more than a sawtooth has";
+  }
+  if (deciding && !TellsTheModelsApart(fit, peaks, options)) {
+    return "the lobe is too blurred, or its comb of glints too coarse, to tell a sinusoid from a "
+           "sawtooth";
+  }
+  return std::string();
+}
+
 }  // namespace
 
 ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult& fits,
@@ -92,14 +122,8 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
   choice.model = picked;
   const int sinusoid = ConvergedFit(fits, ProfileModel::kSinusoid);
   const int sawtooth = ConvergedFit(fits, ProfileModel::kSawtooth);
-  int named = picked == ProfileModel::kSinusoid ? sinusoid : sawtooth;
-  // A fit reads the split only where it explains the profile better than
-  // one peak, and with its caustics where peak picking found the peaks.
-  auto reads_the_split = [&](int i) {
-    return i >= 0 && (smooth < 0 || fits.fits[i].bic < fits.fits[smooth].bic) &&
-           AtThePeaks(fits.fits[i], peaks) && !CornersFillTheLobe(fits.fits[i]) &&
-           AtTheMirror(fits.fits[i], peaks);
-  };
+  const int named = picked == ProfileModel::kSinusoid ? sinusoid : sawtooth;
+  const ModelFit* one_peak = smooth >= 0 ? &fits.fits[smooth] : nullptr;
   if (sinusoid >= 0 && sawtooth >= 0) {
     const int other = named == sinusoid ? sawtooth : sinusoid;
     const ModelFit& a = fits.fits[named];
@@ -107,43 +131,39 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
     const double tau = std::max({a.correlation_bins, b.correlation_bins, 1.0});
     const double for_other = (a.bic - b.bic) / (tau * Overdispersion(a, b));
     choice.evidence = -for_other;
-    if (for_other >= options.min_split_evidence && reads_the_split(other) &&
-        TellsTheModelsApart(b, peaks, options)) {
-      choice.model = b.model;
-      choice.evidence = for_other;
-      choice.fit = other;
-      choice.reason = absl::StrFormat(
-          "%s, not the %s peak picking read from the level between the peaks: fitted to the "
-          "whole lobe, it explains the profile with a BIC lower by %.0f per independent bin",
-          ProfileModelName(b.model), ProfileModelName(picked), for_other);
-      return choice;
-    }
     if (for_other > 0.0) {
-      // The other model explains the lobe better, not decisively (or not
-      // with its caustics at the peaks): neither fit's numbers stand, peak
+      const std::string why_not =
+          for_other < options.min_split_evidence
+              ? absl::StrFormat("short of the %.0f that decides", options.min_split_evidence)
+              : WhyNotRead(b, one_peak, peaks, options, /*deciding=*/true);
+      if (why_not.empty()) {
+        choice.model = b.model;
+        choice.evidence = for_other;
+        choice.fit = other;
+        choice.reason = absl::StrFormat(
+            "%s, not the %s peak picking read from the level between the peaks: fitted to the "
+            "whole lobe, it explains the profile with a BIC lower by %.0f per independent bin",
+            ProfileModelName(b.model), ProfileModelName(picked), for_other);
+        return choice;
+      }
+      // The other model explains the lobe better, but not decisively or not
+      // as a reading of this lobe: neither fit's numbers stand, peak
       // picking's (with its allowances) do.
       choice.reason = absl::StrFormat(
-          "the fits prefer %s to peak picking's %s by %.1f BIC per independent bin%s; peak "
-          "picking's reading is kept",
-          ProfileModelName(b.model), ProfileModelName(picked), for_other,
-          for_other < options.min_split_evidence
-              ? absl::StrFormat(", short of the %.0f that decides", options.min_split_evidence)
-              : std::string(", but its caustics do not stand where peak picking found the "
-                            "peaks or the mirror azimuth, its corners fill the lobe, or the "
-                            "lobe is too blurred or its comb too coarse to tell the two "
-                            "apart"));
+          "the fits prefer %s to peak picking's %s by %.1f BIC per independent bin, but %s; "
+          "peak picking's reading is kept",
+          ProfileModelName(b.model), ProfileModelName(picked), for_other, why_not);
       return choice;
     }
   }
-  if (reads_the_split(named)) {
+  if (named < 0) return choice;
+  const std::string why_not = WhyNotRead(fits.fits[named], one_peak, peaks, options, false);
+  if (why_not.empty()) {
     choice.fit = named;
-  } else if (named >= 0) {
-    choice.reason = absl::StrFormat(
-        "the %s fit explains the profile less well than one peak, fills it with its corners, "
-        "stands off the mirror azimuth the acquisition makes, or puts its caustics %.2f deg "
-        "apart where peak picking found the peaks %.2f deg apart; peak picking's split is kept",
-        ProfileModelName(choice.model), PeakSpacingRad(fits.fits[named].max_slope) / kDegree,
-        peaks.spacing_rad / kDegree);
+  } else {
+    choice.reason = absl::StrFormat("the %s fit does not give the split: %s; peak picking's is "
+                                    "kept",
+                                    ProfileModelName(choice.model), why_not);
   }
   return choice;
 }

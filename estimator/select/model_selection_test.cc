@@ -70,7 +70,7 @@ TEST(ChooseProfileModelTest, AFitWhoseCausticsMissThePeaksDoesNotOverturn) {
   const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
   EXPECT_EQ(c.model, ProfileModel::kSinusoid);
   EXPECT_EQ(c.fit, -1);
-  EXPECT_NE(c.reason.find("caustics do not stand"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("caustics stand 13.00 deg apart"), std::string::npos) << c.reason;
   // Where they stand at the peaks, the same evidence overturns it.
   r.fits[2].max_slope = std::tan(10.5 * kDeg);
   EXPECT_EQ(ChooseProfileModel(Read(ProfileModel::kSinusoid), r).model, ProfileModel::kSawtooth);
@@ -115,7 +115,7 @@ TEST(ChooseProfileModelTest, ABlurredOrCoarseCombedLobeDoesNotDecide) {
   peaks.comb_gap_rad = 3.0 * kDeg;
   const ModelChoice c = ChooseProfileModel(peaks, r);
   EXPECT_EQ(c.model, ProfileModel::kSinusoid);
-  EXPECT_NE(c.reason.find("comb too coarse"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("comb of glints too coarse"), std::string::npos) << c.reason;
   peaks.comb_gap_rad = 2.0 * kDeg;
   EXPECT_EQ(ChooseProfileModel(peaks, r).model, ProfileModel::kSawtooth);
 }
