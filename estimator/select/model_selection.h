@@ -13,15 +13,14 @@ namespace weavefit {
 
 struct ModelSelectionOptions {
   // The evidence, in BIC per independent bin, one split model's fit needs
-  // over the other's to overturn peak picking's reading (the BIC difference
-  // divided by the residuals' integrated correlation, ModelFit::
-  // correlation_bins, since the bins are not independent, and by the better
-  // fit's reduced chi-square where it exceeds 1, since then neither model
-  // explains the profile): 10 is "very
-  // strong" on Kass and Raftery's scale (2·ln of the Bayes factor). Between
-  // two fits this close the lobe does not tell the models apart, and peak
-  // picking's reading, which sees the glints and the level between the
-  // peaks, stands.
+  // over the other's to overturn peak picking's reading: the BIC difference
+  // divided by the residuals' integrated correlation (ModelFit::
+  // correlation_bins; the bins are not independent) and by the better fit's
+  // reduced chi-square where it exceeds 1 (then neither model explains the
+  // profile). 10 is "very strong" on Kass and Raftery's scale (2·ln of the
+  // Bayes factor). Between two fits this close the lobe does not tell the
+  // models apart, and peak picking's reading, which sees the glints and the
+  // level between the peaks, stands.
   double min_split_evidence = 10.0;
   // The two split models differ in how the level falls from each caustic
   // toward the middle (a sinusoid's inner shoulder, a sawtooth's flank and
@@ -71,15 +70,19 @@ struct ModelChoice {
 // out 0.6-1.9° off with errors of 0.1-0.35° on the stability sweep (grazing
 // light, α = 140°; m = 0.04). Between the two split models the fits decide
 // on min_split_evidence, where their lobe can tell the two apart
-// (min_split_per_blur, min_teeth_between_caustics). A split is reported from the chosen model's fit
-// only where that fit explains the profile better than one peak does, its
-// mirror azimuth stands where the stated geometry puts it (within 3 of its
-// errors and a degree, as peak picking's must), and its caustics stand
-// where peak picking found the peaks (their spacings
-// within 3 of their combined errors: a heavily blurred sawtooth can mimic a
-// sinusoid's lobe with its caustics far inside the peaks, and a fit can
-// settle on a comb's inner teeth). `fits` may hold no converged fit (then
-// peak picking's reading stands).
+// (min_split_per_blur, min_teeth_between_caustics).
+//
+// A split is reported from the chosen model's fit only where that fit
+// explains the profile better than one peak does; its caustics stand where
+// peak picking found the peaks (their spacings within 3 of their combined
+// errors: a heavily blurred sawtooth can mimic a sinusoid's lobe with its
+// caustics far inside the peaks, and a fit can settle on a comb's inner
+// teeth); its mirror azimuth stands where the stated geometry puts it
+// (within 3 of its errors and a degree, as peak picking's must); and, for a
+// sawtooth, its corners stay under kMaxCornerShare. Otherwise the model is
+// named and peak picking's numbers stand, and `reason` says which check
+// failed. `fits` may hold no converged fit (then peak picking's reading
+// stands).
 ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult& fits,
                                const ModelSelectionOptions& options = {});
 
