@@ -118,8 +118,8 @@ std::string LimbsSeen(const CylinderGeometry& c) {
 
 const char* MethodName(const std::string& mode) {
   if (mode == "fast") return "peak picking (fast)";
-  if (mode == "accurate") return "least squares + comb (accurate)";
-  return "comb fit or peaks (balanced)";
+  if (mode == "accurate") return "lobe fits from 2 starts + glints (accurate)";
+  return "lobe fit + glints (balanced)";
 }
 
 }  // namespace
