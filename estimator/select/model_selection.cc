@@ -19,16 +19,22 @@ int ConvergedFit(const ProfileFitResult& fits, ProfileModel model) {
   return -1;
 }
 
-// How far the better of two fits leaves its residuals above the noise
-// model: its reduced chi-square, at least 1. Where neither model explains
-// the profile (a lobe cut by the limb, a shape neither has), their BIC
-// difference measures which misfit is smaller, not which model is there, and
-// counts that much less (quasi-likelihood, as in QAIC).
-double Overdispersion(const ModelFit& a, const ModelFit& b) {
-  auto reduced = [](const ModelFit& f) {
-    return f.chi2 / std::max(f.num_residuals - f.num_params, 1);
-  };
-  return std::max(1.0, std::min(reduced(a), reduced(b)));
+// The evidence, in BIC per independent bin, for `better` over `worse`: their
+// BIC difference divided by the better fit's residual correlation
+// (ModelFit::correlation_bins: its n bins carry about n/τ independent
+// pieces of information) and by its reduced chi-square where that exceeds
+// 1. Both are read off the better fit because the worse fit's residuals
+// hold its misfit, which is the signal being weighed, not noise: a split
+// fit that leaves a lone specular peak unexplained has residuals correlated
+// over the peak's whole width. Where even the better fit leaves structure
+// the noise does not explain (a lobe cut by the limb, a ripple of axial
+// glint lines, a shape neither model has), the difference measures which
+// misfit is smaller and counts that much less (quasi-likelihood, as in
+// QAIC, whose overdispersion comes from the best-approximating model).
+double Evidence(const ModelFit& better, const ModelFit& worse) {
+  const double reduced = better.chi2 / std::max(better.num_residuals - better.num_params, 1);
+  return (worse.bic - better.bic) /
+         (std::max(better.correlation_bins, 1.0) * std::max(reduced, 1.0));
 }
 
 // Whether a split fit's caustics stand where peak picking found the peaks:
@@ -69,6 +75,35 @@ bool TellsTheModelsApart(const ModelFit& fit, const PeakReading& peaks,
   const double blur = std::hypot(fit.blur_rad, peaks.smoothing_rad);
   return spacing >= options.min_split_per_blur * blur &&
          spacing >= options.min_teeth_between_caustics * peaks.comb_gap_rad;
+}
+
+// The converged split fit with the lowest BIC, else -1.
+int BestSplitFit(const ProfileFitResult& fits) {
+  int best = -1;
+  for (std::size_t i = 0; i < fits.fits.size(); ++i) {
+    const ModelFit& f = fits.fits[i];
+    if (f.model == ProfileModel::kSmooth || !f.converged) continue;
+    if (best < 0 || f.bic < fits.fits[best].bic) best = static_cast<int>(i);
+  }
+  return best;
+}
+
+// Whether one peak explains a lobe peak picking read as split: the one-peak
+// fit beats the better split fit by min_split_evidence, stands at the
+// mirror azimuth, and is narrow against the split read (its blur, with the
+// smoothing, under 1/min_split_per_blur of the spacing). Two caustics that
+// far apart are two peaks no single blurred peak can mimic, so a narrow
+// peak that explains the lobe decisively better says the maxima taken for
+// caustics are something else: the glint lines of axial threads, which
+// stand at one pitch across the whole lit surface, or the relief of stray
+// light. Where the split is closer to the blur, one blurred peak and a
+// split lobe look alike and peak picking's reading stands.
+bool OnePeakExplainsTheSplit(const ModelFit& smooth, const ModelFit& split,
+                             const PeakReading& peaks, const ModelSelectionOptions& options) {
+  if (!(smooth.bic < split.bic)) return false;
+  const double blur = std::hypot(smooth.blur_rad, peaks.smoothing_rad);
+  return Evidence(smooth, split) >= options.min_split_evidence &&
+         peaks.spacing_rad >= options.min_split_per_blur * blur && AtTheMirror(smooth, peaks);
 }
 
 // Why a split fit does not read the split (or, with `deciding`, cannot
@@ -119,6 +154,20 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
     }
     return choice;
   }
+  const int best_split = BestSplitFit(fits);
+  if (smooth >= 0 && best_split >= 0 &&
+      OnePeakExplainsTheSplit(fits.fits[smooth], fits.fits[best_split], peaks, options)) {
+    choice.model = ProfileModel::kSmooth;
+    choice.fit = smooth;
+    choice.evidence = Evidence(fits.fits[smooth], fits.fits[best_split]);
+    choice.reason = absl::StrFormat(
+        "SMOOTH, not the %s peak picking read from maxima %.2f deg apart: one narrow peak at the "
+        "mirror azimuth explains the lobe with a BIC lower by %.0f per independent bin than the "
+        "best split fit, so those maxima are not caustics (glint lines of axial threads, or "
+        "stray light's relief, stand across the whole lit surface)",
+        ProfileModelName(picked), peaks.spacing_rad / kDegree, choice.evidence);
+    return choice;
+  }
   choice.model = picked;
   const int sinusoid = ConvergedFit(fits, ProfileModel::kSinusoid);
   const int sawtooth = ConvergedFit(fits, ProfileModel::kSawtooth);
@@ -128,8 +177,7 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
     const int other = named == sinusoid ? sawtooth : sinusoid;
     const ModelFit& a = fits.fits[named];
     const ModelFit& b = fits.fits[other];
-    const double tau = std::max({a.correlation_bins, b.correlation_bins, 1.0});
-    const double for_other = (a.bic - b.bic) / (tau * Overdispersion(a, b));
+    const double for_other = b.bic < a.bic ? Evidence(b, a) : -Evidence(a, b);
     choice.evidence = -for_other;
     if (for_other > 0.0) {
       const std::string why_not =

@@ -12,15 +12,15 @@
 namespace weavefit {
 
 struct ModelSelectionOptions {
-  // The evidence, in BIC per independent bin, one split model's fit needs
-  // over the other's to overturn peak picking's reading: the BIC difference
-  // divided by the residuals' integrated correlation (ModelFit::
-  // correlation_bins; the bins are not independent) and by the better fit's
-  // reduced chi-square where it exceeds 1 (then neither model explains the
-  // profile). 10 is "very strong" on Kass and Raftery's scale (2·ln of the
-  // Bayes factor). Between two fits this close the lobe does not tell the
-  // models apart, and peak picking's reading, which sees the glints and the
-  // level between the peaks, stands.
+  // The evidence, in BIC per independent bin, one model's fit needs over
+  // another's to overturn peak picking's reading (one split model over the
+  // other, or one peak over a split): the BIC difference divided by the
+  // better fit's residual correlation (ModelFit::correlation_bins; the bins
+  // are not independent) and by its reduced chi-square where that exceeds 1
+  // (then neither model explains the profile). 10 is "very strong" on Kass
+  // and Raftery's scale (2·ln of the Bayes factor). Between two fits this
+  // close the lobe does not tell the models apart, and peak picking's
+  // reading, which sees the glints and the level between the peaks, stands.
   double min_split_evidence = 10.0;
   // The two split models differ in how the level falls from each caustic
   // toward the middle (a sinusoid's inner shoulder, a sawtooth's flank and
@@ -28,7 +28,10 @@ struct ModelSelectionOptions {
   // blurs (the fit's, with the smoothing) apart: a sinusoid of m = 0.04
   // whose caustics stood 5 blurs apart was fitted better by a sawtooth
   // with rounded corners (stability sweep), where the overturns needed on
-  // photographs stood 17-34 apart.
+  // photographs stood 17-34 apart. Likewise one peak overturns a split only
+  // where the split read spans this many of the one-peak fit's blurs:
+  // closer, one blurred peak mimics two caustics (on the sweep, one peak
+  // preferred at m = 0.04 came out 0.6-1.9° off).
   double min_split_per_blur = 10.0;
   // ... and where a comb of glints puts this many teeth between them: a
   // coarse comb is the glints of a few weave phases, not the density the
@@ -58,19 +61,24 @@ struct ModelChoice {
   int fit = -1;
   // The BIC per independent bin by which the named split model's fit beats
   // the other split model's (negative: it loses, kept on peak picking's
-  // word); 0 where no two split fits converged.
+  // word), or by which one peak beats the better split fit where it
+  // overturned a split; 0 where no two split fits converged.
   double evidence = 0.0;
   // In a user's words, why: empty where peak picking's reading stands
   // unchallenged.
   std::string reason;
 };
 
-// Peak picking decides whether the lobe splits at all: a split the fits
-// find where it saw one peak, or one peak they prefer where it saw two, came
-// out 0.6-1.9° off with errors of 0.1-0.35° on the stability sweep (grazing
-// light, α = 140°; m = 0.04). Between the two split models the fits decide
-// on min_split_evidence, where their lobe can tell the two apart
-// (min_split_per_blur, min_teeth_between_caustics).
+// Peak picking decides whether the lobe splits, but for one case: a split
+// the fits find where it saw one peak, or one peak they prefer where it saw
+// two caustics a few blurs apart, came out 0.6-1.9° off with errors of
+// 0.1-0.35° on the stability sweep (grazing light, α = 140°; m = 0.04).
+// The case: a split read from maxima many blurs apart (min_split_per_blur)
+// that one narrow peak at the mirror azimuth explains decisively better
+// (min_split_evidence) is one peak; the maxima were not caustics. Between
+// the two split models the fits decide on min_split_evidence, where their
+// lobe can tell the two apart (min_split_per_blur,
+// min_teeth_between_caustics).
 //
 // A split is reported from the chosen model's fit only where that fit
 // explains the profile better than one peak does; its caustics stand where

@@ -177,10 +177,44 @@ TEST(ChooseProfileModelTest, OnePeakReadStaysOnePeak) {
 }
 
 TEST(ChooseProfileModelTest, SplitFitWorseThanOnePeakGivesNoNumbers) {
-  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), Fits(300, 400, 900));
+  // One peak blurred over 3°: the split read, 20° wide, is under 10 of its
+  // blurs, where one blurred peak mimics two caustics; peak picking's split
+  // stands, without the fit's numbers.
+  ProfileFitResult r = Fits(300, 400, 900);
+  r.fits[0].blur_rad = 3.0 * kDeg;
+  const ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
   EXPECT_EQ(c.model, ProfileModel::kSinusoid);
   EXPECT_EQ(c.fit, -1);
   EXPECT_NE(c.reason.find("less well than one peak"), std::string::npos) << c.reason;
+}
+
+TEST(ChooseProfileModelTest, ANarrowPeakThatExplainsTheLobeOverturnsAWideSplit) {
+  // Maxima 20° apart that one peak 0.7° wide explains by 1,500 BIC over
+  // residuals correlated across 3 bins and 9 times the noise: 56 per
+  // independent bin, and 27 of its blurs between the maxima. The maxima
+  // were not caustics: one peak, and its fit's mirror azimuth.
+  ProfileFitResult r = Fits(2000, 3500, 3600, 12.0);
+  r.fits[0].correlation_bins = 3.0;
+  r.fits[0].blur_rad = 0.7 * kDeg;
+  r.fits[0].num_residuals = 250;
+  r.fits[0].num_params = 6;
+  r.fits[0].chi2 = 9.0 * 244;
+  ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSmooth);
+  EXPECT_EQ(c.fit, 0);
+  EXPECT_NEAR(c.evidence, 1500.0 / (3.0 * 9.0), 1e-9);
+  EXPECT_NE(c.reason.find("SMOOTH, not the SINUSOID"), std::string::npos) << c.reason;
+  // Short of the evidence (60 BIC, 2.2 per independent bin), the split
+  // stands.
+  r.fits[1].bic = 2060;
+  c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  // Decisive, but the one peak off the mirror azimuth: not the specular
+  // lobe, and the split stands.
+  r.fits[1].bic = 3500;
+  r.fits[0].mirror_rad = 5.0 * kDeg;
+  c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
 }
 
 TEST(ChooseProfileModelTest, UnconvergedFitsLeavePeakPickingAlone) {
