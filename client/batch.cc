@@ -596,18 +596,36 @@ ResultsFormat ResultsFormatFor(const std::string& path) {
 }
 
 std::string ResultRecord(ResultsFormat format, const std::string& image,
-                         const v1::EstimateReply& reply) {
+                         const absl::StatusOr<v1::EstimateReply>& reply,
+                         const std::optional<v1::RequestHeader>& asked) {
   if (format == ResultsFormat::kCsv) {
     ReportRow row;
     row.image = image;
-    row.reply = reply;
+    if (reply.ok()) {
+      row.reply = *reply;
+    } else {
+      row.error = StatusLine(reply.status());
+    }
+    row.header = asked;
     return CsvRow(row);
   }
-  google::protobuf::Value path;
-  path.set_string_value(image);
-  std::string quoted;
-  (void)google::protobuf::util::MessageToJsonString(path, &quoted);  // a JSON string
-  return absl::StrCat("{\"image\":", quoted, ",\"reply\":", JsonLine(reply), "}\n");
+  const auto json_string = [](const std::string& text) {
+    google::protobuf::Value value;
+    value.set_string_value(text);
+    std::string quoted;
+    (void)google::protobuf::util::MessageToJsonString(value, &quoted);
+    return quoted;
+  };
+  if (reply.ok()) {
+    return absl::StrCat("{\"image\":", json_string(image), ",\"reply\":", JsonLine(*reply),
+                        "}\n");
+  }
+  const absl::Status& failure = reply.status();
+  return absl::StrCat("{\"image\":", json_string(image), ",\"error\":{\"code\":",
+                      json_string(absl::StatusCodeToString(failure.code())), ",\"message\":",
+                      json_string(std::string(failure.message())), "}",
+                      asked ? absl::StrCat(",\"asked\":", JsonLine(*asked)) : std::string(),
+                      ",\"version\":", json_string(WeavefitVersion()), "}\n");
 }
 
 absl::StatusOr<ResultsFile> ParseResults(const std::string& text, ResultsFormat format,
@@ -646,6 +664,7 @@ absl::StatusOr<ResultsFile> ParseResults(const std::string& text, ResultsFormat 
       }
       out.images.push_back(r.fields[0]);
       out.records.push_back(record + "\n");
+      out.failed.push_back(r.fields[2] != "OK");  // the status column
     }
     return out;
   }
@@ -667,13 +686,17 @@ absl::StatusOr<ResultsFile> ParseResults(const std::string& text, ResultsFormat 
     }
     const auto image = parsed.fields().find("image");
     const auto reply = parsed.fields().find("reply");
+    const auto error = parsed.fields().find("error");
+    const bool replied = reply != parsed.fields().end() && reply->second.has_struct_value();
+    const bool failed = error != parsed.fields().end() && error->second.has_struct_value();
     if (image == parsed.fields().end() || !image->second.has_string_value() ||
-        image->second.string_value().empty() || reply == parsed.fields().end() ||
-        !reply->second.has_struct_value()) {
-      return not_ours(line, "not a {\"image\": ..., \"reply\": {...}} record");
+        image->second.string_value().empty() || replied == failed) {
+      return not_ours(line,
+                      "not a {\"image\": ..., \"reply\" or \"error\": {...}} record");
     }
     out.images.push_back(image->second.string_value());
     out.records.push_back(record + "\n");
+    out.failed.push_back(failed);
   }
   return out;
 }
@@ -683,7 +706,9 @@ std::vector<bool> AlreadyDone(const std::vector<std::string>& images, const Resu
   std::vector<bool> skip(images.size(), false);
   if (no_skip) return skip;
   std::vector<std::string> keys;
-  for (const std::string& image : done.images) keys.push_back(PathKey(image));
+  for (std::size_t i = 0; i < done.images.size(); ++i) {
+    if (!done.failed[i]) keys.push_back(PathKey(done.images[i]));
+  }
   std::sort(keys.begin(), keys.end());
   for (std::size_t i = 0; i < images.size(); ++i) {
     skip[i] = std::binary_search(keys.begin(), keys.end(), PathKey(images[i]));

@@ -79,7 +79,7 @@ const ManifestRow* FindRow(const std::vector<ManifestRow>& rows, const std::stri
 struct MetadataFlags {
   // One for all images, or one per image (--phase-angle 10,60,110).
   std::vector<double> phase_angles_deg;
-  double diameter_mm = 46.0;   // cylinder diameter
+  double diameter_mm = 0.0;    // cylinder diameter; 0 = not given (no mm lengths)
   double distance_mm = 0.0;    // camera distance from the axis; 0 = orthographic
   bool linear = false;         // pixels already linear
   double saturation_level = 0.0;  // file units; 0 = the format's maximum
@@ -162,9 +162,13 @@ enum class ResultsFormat { kJsonLines, kCsv };
 ResultsFormat ResultsFormatFor(const std::string& path);
 
 // One record of the results file, "\n" included: CsvRow, or the JSON line
-// {"image": PATH, "reply": {protobuf's JSON mapping of the reply}}.
+// {"image": PATH, "reply": {protobuf's JSON mapping of the reply}}; for a
+// failed photograph its CsvRow, or {"image": PATH, "error": {"code",
+// "message"}, "asked": {the request header, where one was made},
+// "version": this client's}. `asked` is the request made, if any.
 std::string ResultRecord(ResultsFormat format, const std::string& image,
-                         const v1::EstimateReply& reply);
+                         const absl::StatusOr<v1::EstimateReply>& reply,
+                         const std::optional<v1::RequestHeader>& asked);
 
 // What a results file holds: its complete records, verbatim ("\n" included)
 // and the image each is for. A record is complete when its line end was
@@ -173,6 +177,7 @@ std::string ResultRecord(ResultsFormat format, const std::string& image,
 struct ResultsFile {
   std::vector<std::string> images;   // as written
   std::vector<std::string> records;  // aligned with images
+  std::vector<bool> failed;          // aligned with images: an error record
   bool torn_tail = false;
 };
 
@@ -184,7 +189,8 @@ absl::StatusOr<ResultsFile> ParseResults(const std::string& text, ResultsFormat 
                                          const std::string& name);
 
 // For each of `images`: true when its result is already in `done` (by
-// PathKey) and `no_skip` is false.
+// PathKey), not as a failure (a failed photograph is tried again), and
+// `no_skip` is false.
 std::vector<bool> AlreadyDone(const std::vector<std::string>& images, const ResultsFile& done,
                               bool no_skip);
 

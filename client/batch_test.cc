@@ -216,7 +216,7 @@ TEST(HeaderTest, ManifestThenFlagsThenSidecar) {
   absl::StatusOr<v1::RequestHeader> given = HeaderFor(flags, image, 0, nullptr);
   ASSERT_TRUE(given.ok());
   EXPECT_EQ(given->acquisition().phase_angle_deg(), 10.0);
-  EXPECT_EQ(given->acquisition().cylinder_diameter_mm(), 46.0);  // no sidecar read
+  EXPECT_EQ(given->acquisition().cylinder_diameter_mm(), 0.0);  // no sidecar read: not given
   EXPECT_EQ(given->acquisition().camera_distance_mm(), 0.0);
 
   ManifestRow diameter_only;
@@ -294,8 +294,10 @@ TEST(ResultsTest, FormatFromTheFileName) {
 }
 
 TEST(ResultsTest, JsonLinesRoundTripAndATornTailIsDropped) {
-  const std::string a = ResultRecord(ResultsFormat::kJsonLines, "dir/a \"1\".png", Reply("a", 0.2));
-  const std::string b = ResultRecord(ResultsFormat::kJsonLines, "b.png", Reply("b", 0.3));
+  const std::string a =
+      ResultRecord(ResultsFormat::kJsonLines, "dir/a \"1\".png", Reply("a", 0.2), std::nullopt);
+  const std::string b =
+      ResultRecord(ResultsFormat::kJsonLines, "b.png", Reply("b", 0.3), std::nullopt);
   EXPECT_EQ(a.rfind("{\"image\":\"dir/a \\\"1\\\".png\",\"reply\":{", 0), 0u) << a;
   EXPECT_EQ(a.back(), '\n');
   EXPECT_EQ(std::count(a.begin(), a.end(), '\n'), 1);
@@ -329,8 +331,9 @@ TEST(ResultsTest, AFileWeavefitDidNotWriteIsRefused) {
 }
 
 TEST(ResultsTest, CsvRoundTripAndATornTailIsDropped) {
-  const std::string a = ResultRecord(ResultsFormat::kCsv, "a,1.png", Reply("a", 0.2));
-  const std::string b = ResultRecord(ResultsFormat::kCsv, "b.png", Reply("b", 0.3));
+  const std::string a =
+      ResultRecord(ResultsFormat::kCsv, "a,1.png", Reply("a", 0.2), std::nullopt);
+  const std::string b = ResultRecord(ResultsFormat::kCsv, "b.png", Reply("b", 0.3), std::nullopt);
   absl::StatusOr<ResultsFile> file =
       ParseResults(CsvHeader() + a + b + b.substr(0, 20), ResultsFormat::kCsv, "out.csv");
   ASSERT_TRUE(file.ok()) << file.status();
@@ -348,6 +351,7 @@ TEST(ResultsTest, ImagesWithResultsAreSkippedUnlessNoSkip) {
   ResultsFile done;
   done.images = {"fixtures/a.png", "./fixtures/b.png"};
   done.records = {"A\n", "B\n"};
+  done.failed = {false, false};
   const std::vector<std::string> batch = {"fixtures/./a.png", "fixtures/b.png", "fixtures/c.png"};
   EXPECT_EQ(AlreadyDone(batch, done, false), (std::vector<bool>{true, true, false}));
   EXPECT_EQ(AlreadyDone(batch, done, true), (std::vector<bool>{false, false, false}));
@@ -355,6 +359,36 @@ TEST(ResultsTest, ImagesWithResultsAreSkippedUnlessNoSkip) {
   EXPECT_EQ(KeptResults(done, ResultsFormat::kJsonLines, {}), "A\nB\n");
   EXPECT_EQ(KeptResults(done, ResultsFormat::kJsonLines, {"fixtures/b.png"}), "A\n");
   EXPECT_EQ(KeptResults(done, ResultsFormat::kCsv, batch), CsvHeader());
+}
+
+TEST(ResultsTest, AFailedPhotographHasARecordAndIsTriedAgain) {
+  v1::RequestHeader asked;
+  asked.mutable_acquisition()->set_phase_angle_deg(10.0);
+  asked.mutable_acquisition()->set_cylinder_diameter_mm(46.0);
+  asked.mutable_options()->set_mode(v1::FAST);
+  const absl::Status refused = absl::InvalidArgumentError("no cylinder found, nor a \"limb\"");
+  for (ResultsFormat format : {ResultsFormat::kCsv, ResultsFormat::kJsonLines}) {
+    const std::string ok = ResultRecord(format, "a.png", Reply("a", 0.2), std::nullopt);
+    const std::string failed = ResultRecord(format, "b.png", refused, asked);
+    EXPECT_NE(failed.find("INVALID_ARGUMENT"), std::string::npos) << failed;
+    absl::StatusOr<ResultsFile> file =
+        ParseResults((format == ResultsFormat::kCsv ? CsvHeader() : "") + ok + failed, format,
+                     "out");
+    ASSERT_TRUE(file.ok()) << file.status();
+    EXPECT_EQ(file->images, (std::vector<std::string>{"a.png", "b.png"}));
+    EXPECT_EQ(file->failed, (std::vector<bool>{false, true}));
+    // The failed one is estimated again, the other skipped.
+    EXPECT_EQ(AlreadyDone({"a.png", "b.png"}, *file, false), (std::vector<bool>{true, false}));
+  }
+  // The CSV's failed row says what was asked, and its message splits on
+  // commas alone.
+  const std::string row = ResultRecord(ResultsFormat::kCsv, "b.png", refused, asked);
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), CsvColumns().size() - 1) << row;
+  EXPECT_NE(row.find(",10,46,0,fast,"), std::string::npos) << row;
+  // The JSON record carries the request and this client's version.
+  const std::string json = ResultRecord(ResultsFormat::kJsonLines, "b.png", refused, asked);
+  EXPECT_NE(json.find("\"asked\":{"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"version\":"), std::string::npos) << json;
 }
 
 TEST(RetryTest, RetryableCodes) {

@@ -160,7 +160,7 @@ int RunBench(const BenchFlags& flags) {
     Acquisition acquisition;
     acquisition.phase_angle_rad = *phase * kDeg;
     acquisition.cylinder_diameter_mm =
-        StructNumber(*sidecar, "acquisition", "cylinderDiameterMm").value_or(46.0);
+        StructNumber(*sidecar, "acquisition", "cylinderDiameterMm").value_or(0.0);
     acquisition.camera_distance_mm =
         StructNumber(*sidecar, "acquisition", "cameraDistanceMm").value_or(0.0);
     const double truth_spacing = StructNumber(*sidecar, "truth", "peakSpacingDeg").value_or(0.0);

@@ -75,7 +75,9 @@ absl::StatusOr<v1::EstimateReply> EstimateInProcess(const v1::RequestHeader& hea
   if (!profile_csv.empty()) {
     if (absl::Status s = WriteFile(profile_csv, ProfileCsv(estimate->profile)); !s.ok()) return s;
   }
-  return ReplyFromEstimate(*estimate, header.sample_name());
+  v1::EstimateReply reply = ReplyFromEstimate(*estimate, header.sample_name());
+  reply.set_filename(header.filename());
+  return reply;
 }
 
 // weavefit estimate: each image in turn, in this process.
@@ -131,6 +133,7 @@ int RunEstimates(EstimateFlags flags) {
       if (series->given) {
         *header->mutable_acquisition()->mutable_given_cylinder() = *series->given;
       }
+      row.header = *header;
       absl::StatusOr<v1::EstimateReply> estimated =
           EstimateInProcess(*header, *bytes, flags.profile_csv);
       if (!estimated.ok() && !flags.plot_dir.empty()) {
@@ -156,9 +159,8 @@ int RunEstimates(EstimateFlags flags) {
       std::cerr << "weavefit: " << image << ": "
                 << absl::StatusCodeToString(reply.status().code()) << ": "
                 << reply.status().message() << "\n";
-      if (json) std::cout << ErrorToJson(reply.status()) << "\n";
-      row.error = absl::StrCat(absl::StatusCodeToString(reply.status().code()), ": ",
-                               reply.status().message());
+      if (json) std::cout << ImageErrorJson(image, reply.status()) << "\n";
+      row.error = StatusLine(reply.status());
     }
     if (flags.format == "csv") std::cout << CsvRow(row);
     if (auto sidecar = ReadSidecar(image)) {
@@ -285,8 +287,10 @@ void AddMetadataFlags(CLI::App* app, MetadataFlags* flags) {
                   "(default: each sidecar's acquisition.phaseAngleDeg)")
       ->delimiter(',')
       ->allow_extra_args(false);
-  app->add_option("--diameter-mm", flags->diameter_mm, "cylinder diameter, mm")
-      ->capture_default_str();
+  app->add_option("--diameter-mm", flags->diameter_mm,
+                  "cylinder diameter, mm (default: each sidecar's "
+                  "acquisition.cylinderDiameterMm; without any, the wavelength and amplitude "
+                  "are reported in cylinder radii in a warning, unresolved in mm)");
   app->add_option("--distance-mm", flags->distance_mm,
                   "camera distance from the axis, mm; 0 = orthographic")
       ->capture_default_str();
@@ -571,6 +575,13 @@ int RunRender(RenderFlags& flags) {
     std::cerr << "weavefit render: " << status.message() << "\n";
     return static_cast<int>(status.code());
   }
+  const RenderScene& s = flags.scene;
+  std::cout << absl::StrFormat(
+      "wrote %s (%dx%d %s, %s, phase angle %g deg, max slope %.4f, peak spacing %.3f deg) and "
+      "its truth %s\n",
+      flags.out, rendered->image.width, rendered->image.height, format,
+      ProfileModelName(s.model), s.phase_angle_deg, rendered->truth.max_slope,
+      rendered->truth.peak_spacing_deg, SidecarPath(flags.out));
   return 0;
 }
 
@@ -607,6 +618,7 @@ int main(int argc, char** argv) {
   google::InitGoogleLogging(argv[0]);
   CLI::App app{"weavefit: thread geometry of glossy woven materials from one photograph"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("weavefit ") + weavefit::WeavefitVersion());
   weavefit::EstimateFlags estimate_flags;
   weavefit::SubmitFlags submit_flags;
   weavefit::RenderFlags render_flags;

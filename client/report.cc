@@ -1,12 +1,15 @@
 #include "client/report.h"
 
+#include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 
 #include <algorithm>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "proto/weavefit/v1/convert.h"
 
 namespace weavefit {
 namespace {
@@ -42,6 +45,30 @@ void AppendMeasurement(const v1::Measurement& m, std::vector<std::string>* cells
   cells->push_back(!m.resolved() && m.upper_bound() > 0.0 ? Number(m.upper_bound()) : "");
   cells->push_back(m.resolved() ? Number(m.statistical()) : "");
   cells->push_back(m.resolved() ? Number(m.systematic()) : "");
+}
+
+// Free text for a CSV cell that splits on commas alone (CsvRow).
+std::string CsvText(std::string text) {
+  for (char& c : text) {
+    if (c == ',') c = ';';
+    if (c == '"') c = '\'';
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  return text;
+}
+
+// phase_angle_deg, cylinder_diameter_mm, camera_distance_mm, mode and
+// weavefit_version: what was asked (all but the version empty where
+// nothing was, as for a photograph without a phase angle).
+void AppendAsked(const v1::Acquisition& a, v1::Mode mode, const std::string& version, bool asked,
+                 std::vector<std::string>* cells) {
+  cells->push_back(asked ? Number(a.phase_angle_deg()) : "");
+  cells->push_back(asked && a.cylinder_diameter_mm() > 0.0 ? Number(a.cylinder_diameter_mm())
+                                                           : "");
+  cells->push_back(asked ? Number(a.camera_distance_mm()) : "");
+  const v1::Mode named = mode == v1::MODE_UNSPECIFIED ? v1::BALANCED : mode;
+  cells->push_back(asked ? absl::AsciiStrToLower(v1::Mode_Name(named)) : "");
+  cells->push_back(version);
 }
 
 constexpr const char* kCsvMeasurements[] = {"peak_spacing_deg", "max_slope",
@@ -125,7 +152,16 @@ std::string JointJsonLine(const v1::JointEstimate& joint) {
 }
 
 std::vector<std::string> CsvColumns() {
-  std::vector<std::string> columns = {"image", "sample_name", "status", "model", "method"};
+  std::vector<std::string> columns = {"image",
+                                      "sample_name",
+                                      "status",
+                                      "model",
+                                      "method",
+                                      "phase_angle_deg",
+                                      "cylinder_diameter_mm",
+                                      "camera_distance_mm",
+                                      "mode",
+                                      "weavefit_version"};
   for (const char* m : kCsvMeasurements) {
     columns.push_back(m);
     columns.push_back(absl::StrCat(m, "_stderr"));
@@ -154,8 +190,14 @@ std::string CsvField(const std::string& text) {
 std::string CsvRow(const ReportRow& row) {
   std::vector<std::string> cells = {row.image};
   if (!row.reply) {
+    cells.push_back(row.header ? row.header->sample_name() : "");
+    cells.push_back(CsvText(row.error));
     cells.push_back("");
-    cells.push_back(row.error);
+    cells.push_back("");
+    const v1::RequestHeader none;
+    const v1::RequestHeader& h = row.header ? *row.header : none;
+    AppendAsked(h.acquisition(), h.options().mode(), WeavefitVersion(), row.header.has_value(),
+                &cells);
     cells.resize(CsvColumns().size());
   } else {
     const v1::EstimateReply& r = *row.reply;
@@ -163,6 +205,7 @@ std::string CsvRow(const ReportRow& row) {
     cells.push_back("OK");
     cells.push_back(v1::ProfileModel_Name(r.model()));
     cells.push_back(r.method());
+    AppendAsked(r.acquisition(), r.mode(), r.version(), true, &cells);
     for (const v1::Measurement* m :
          {&r.peak_spacing_deg(), &r.max_slope(), &r.max_inclination_deg(), &r.wavelength_mm(),
           &r.amplitude_mm(), &r.specular_azimuth_deg()}) {
@@ -171,7 +214,7 @@ std::string CsvRow(const ReportRow& row) {
     cells.push_back(Number(r.cylinder().center_x_px()));
     cells.push_back(Number(r.cylinder().radius_px()));
     cells.push_back(Number(r.cylinder().axis_angle_deg()));
-    cells.push_back(absl::StrJoin(r.warnings(), " | "));
+    cells.push_back(CsvText(absl::StrJoin(r.warnings(), " | ")));
   }
   std::string line;
   for (std::size_t i = 0; i < cells.size(); ++i) {
@@ -179,6 +222,21 @@ std::string CsvRow(const ReportRow& row) {
     line += CsvField(cells[i]);
   }
   return line + "\n";
+}
+
+std::string StatusLine(const absl::Status& status) {
+  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
+}
+
+std::string ImageErrorJson(const std::string& image, const absl::Status& status) {
+  google::protobuf::Struct root;
+  google::protobuf::Struct* error = (*root.mutable_fields())["error"].mutable_struct_value();
+  (*error->mutable_fields())["code"].set_string_value(absl::StatusCodeToString(status.code()));
+  (*error->mutable_fields())["message"].set_string_value(std::string(status.message()));
+  (*root.mutable_fields())["image"].set_string_value(image);
+  std::string json;
+  (void)google::protobuf::util::MessageToJsonString(root, &json);
+  return json;
 }
 
 }  // namespace weavefit

@@ -1,6 +1,7 @@
 // Unit tests of client/report: the CSV (columns, quoting, the inclination
 // next to the max slope, unresolved values) and the table's umax column.
 #include "client/report.h"
+#include "proto/weavefit/v1/convert.h"
 
 #include <gtest/gtest.h>
 
@@ -18,6 +19,10 @@ v1::EstimateReply GauzeReply() {
   r.set_sample_name("gauze");
   r.set_model(v1::SINUSOID);
   r.set_method("comb-fit");
+  r.set_version("0.1.0-test");
+  r.set_mode(v1::BALANCED);
+  r.mutable_acquisition()->set_phase_angle_deg(10.0);
+  r.mutable_acquisition()->set_cylinder_diameter_mm(46.0);
   const double m = 0.2356;
   auto set = [](v1::Measurement* out, double value, double se) {
     out->set_value(value);
@@ -67,10 +72,10 @@ TEST(CsvTest, ARowCarriesTheInclinationWithItsError) {
   const std::string line = CsvRow(row);
   ASSERT_EQ(line.back(), '\n');
   const std::vector<std::string> columns = CsvColumns();
-  // The warnings (last) are quoted; everything before them splits plainly.
-  const std::string head = line.substr(0, line.find(",\"first"));
-  const std::vector<std::string> cells = absl::StrSplit(head, ',');
-  ASSERT_EQ(cells.size(), columns.size() - 1) << line;
+  // Every cell splits on commas alone: the warnings' own commas and quotes
+  // became ';' and "'".
+  const std::vector<std::string> cells = absl::StrSplit(line.substr(0, line.size() - 1), ',');
+  ASSERT_EQ(cells.size(), columns.size()) << line;
   const auto cell = [&](const std::string& name) {
     return cells[std::find(columns.begin(), columns.end(), name) - columns.begin()];
   };
@@ -85,7 +90,10 @@ TEST(CsvTest, ARowCarriesTheInclinationWithItsError) {
   EXPECT_EQ(cell("max_inclination_deg_upper_bound"), "");
   EXPECT_NEAR(std::stod(cell("wavelength_mm_statistical")), 0.0012, 1e-12);
   EXPECT_NEAR(std::stod(cell("wavelength_mm_systematic")), 0.0016, 1e-12);
-  EXPECT_EQ(line.substr(head.size()), ",\"first, with a comma | second \"\"quoted\"\"\"\n");
+  EXPECT_EQ(cell("warnings"), "first; with a comma | second 'quoted'");
+  // What was asked, and by which version.
+  EXPECT_EQ(cell("mode"), "balanced");
+  EXPECT_EQ(cell("weavefit_version"), GauzeReply().version());
 }
 
 TEST(CsvTest, UnresolvedValuesAreEmptyAndTheBoundIsGiven) {
@@ -120,7 +128,11 @@ TEST(CsvTest, AFailedImageHasItsStatusAndEmptyCells) {
   ASSERT_EQ(cells.size(), CsvColumns().size());
   EXPECT_EQ(cells[0], "bad.png");
   EXPECT_EQ(cells[2], "INVALID_ARGUMENT: no cylinder found");
-  for (std::size_t i = 3; i < cells.size(); ++i) EXPECT_EQ(cells[i], "") << i;
+  // Nothing was asked (no phase angle, say): only this client's version.
+  const std::vector<std::string> columns = CsvColumns();
+  for (std::size_t i = 3; i < cells.size(); ++i) {
+    EXPECT_EQ(cells[i], columns[i] == "weavefit_version" ? WeavefitVersion() : "") << columns[i];
+  }
 }
 
 TEST(CsvTest, FieldsAreQuotedOnlyWhenTheyMustBe) {

@@ -30,23 +30,6 @@ int Fail(const absl::Status& status, bool json) {
   return static_cast<int>(status.code());
 }
 
-// {"error": {"code": ..., "message": ...}, "image": ...}: ErrorToJson's
-// object, and which image it is about.
-std::string ImageErrorJson(const std::string& image, const absl::Status& status) {
-  google::protobuf::Struct root;
-  google::protobuf::Struct* error = (*root.mutable_fields())["error"].mutable_struct_value();
-  (*error->mutable_fields())["code"].set_string_value(absl::StatusCodeToString(status.code()));
-  (*error->mutable_fields())["message"].set_string_value(std::string(status.message()));
-  (*root.mutable_fields())["image"].set_string_value(image);
-  std::string json;
-  (void)google::protobuf::util::MessageToJsonString(root, &json);
-  return json;
-}
-
-std::string StatusLine(const absl::Status& status) {
-  return absl::StrCat(absl::StatusCodeToString(status.code()), ": ", status.message());
-}
-
 // The results file, appended to record by record.
 //
 // Why appending rather than rewriting the file atomically: a batch of
@@ -323,8 +306,11 @@ int RunSubmit(SubmitFlags flags) {
                    "again\n";
     }
     skip = AlreadyDone(images, *done, flags.no_skip);
-    const std::vector<std::string> redone =
-        flags.no_skip ? images : std::vector<std::string>();
+    // Every image estimated now (a failed one again) replaces its record.
+    std::vector<std::string> redone;
+    for (std::size_t i = 0; i < images.size(); ++i) {
+      if (!skip[i]) redone.push_back(images[i]);
+    }
     if (absl::Status s = sink.Open(flags.out, KeptResults(*done, out_format, redone)); !s.ok()) {
       return Fail(s, json);
     }
@@ -367,6 +353,9 @@ int RunSubmit(SubmitFlags flags) {
   BatchHooks hooks;
   // Plot names over every input, skipped or not, so that a re-run keeps them.
   const std::vector<std::string> plot_names = PlotFileNames(images);
+  // The request made for each image, for its record should it fail (each
+  // k is written and read by the one worker that estimates it).
+  std::vector<std::optional<v1::RequestHeader>> asked(todo.size());
   hooks.estimate = [&](std::size_t k) -> absl::StatusOr<v1::EstimateReply> {
     const std::string& image = images[todo[k]];
     absl::StatusOr<std::string> bytes = ReadFile(image);
@@ -379,6 +368,7 @@ int RunSubmit(SubmitFlags flags) {
       *header->mutable_acquisition()->mutable_given_cylinder() = *series->given;
     }
     const v1::RequestHeader sent = *header;
+    asked[k] = sent;
     absl::StatusOr<v1::EstimateReply> reply = client->Estimate(*std::move(header), *bytes);
     if (!reply.ok() && !flags.plot_dir.empty()) {
       ReportRefusalPlot(flags.plot_dir, plot_names[todo[k]], image, *bytes, sent, reply.status());
@@ -404,8 +394,8 @@ int RunSubmit(SubmitFlags flags) {
   };
   hooks.on_done = [&](std::size_t k, const ImageOutcome& outcome) {
     const std::string& image = images[todo[k]];
-    if (outcome.reply.ok() && write_error.ok()) {
-      write_error = sink.Append(ResultRecord(out_format, image, *outcome.reply));
+    if (write_error.ok()) {
+      write_error = sink.Append(ResultRecord(out_format, image, outcome.reply, asked[k]));
     }
     progress.Done(image, outcome);
     finished[k] = outcome;
@@ -424,6 +414,7 @@ int RunSubmit(SubmitFlags flags) {
         } else {
           row.error = StatusLine(o.reply.status());
         }
+        row.header = asked[printed];
         text += CsvRow(row);
       }
     }

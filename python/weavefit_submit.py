@@ -46,7 +46,10 @@ def parse_args():
     p.add_argument("--server", default="127.0.0.1:50051", help="weavefitd address host:port")
     p.add_argument("--phase-angle", type=float, help="signed phase angle, deg, for every "
                    "photograph (default: each sidecar's acquisition.phaseAngleDeg)")
-    p.add_argument("--diameter-mm", type=float, default=46.0, help="cylinder diameter, mm")
+    p.add_argument("--diameter-mm", type=float, default=0.0,
+                   help="cylinder diameter, mm (default: each sidecar's; without any, the "
+                   "wavelength and amplitude are unresolved in mm, given in cylinder radii "
+                   "in a warning)")
     p.add_argument("--distance-mm", type=float, default=0.0,
                    help="camera distance from the axis, mm; 0 = orthographic")
     p.add_argument("--mode", choices=("fast", "balanced", "accurate"), default="balanced")

@@ -14,7 +14,7 @@ packages=(
   libcivetweb-dev libssl-dev
   clang libclang-rt-14-dev
   gnuplot-nox
-  python3-grpcio python3-grpc-tools python3-protobuf
+  python3-grpcio python3-grpc-tools python3-protobuf python3-numpy python3-pandas
 )
 missing=()
 for p in "${packages[@]}"; do

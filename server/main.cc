@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "server/server.h"
+#include "proto/weavefit/v1/convert.h"
 
 namespace {
 
@@ -62,6 +63,7 @@ int main(int argc, char** argv) {
   service.max_queue = 2 * service.workers;
 
   CLI::App app{"weavefitd: thread geometry of glossy woven materials, served over gRPC"};
+  app.set_version_flag("--version", std::string("weavefitd ") + weavefit::WeavefitVersion());
   app.add_option("--listen", options.listen,
                  "host:port to listen on (port 0 = any free port); an address other than "
                  "loopback needs TLS or --insecure-remote")

@@ -421,7 +421,9 @@ absl::StatusOr<v1::EstimateReply> WeaveFitService::EstimateUpload(Upload* upload
     metrics_->decode_seconds.Observe(decode_ms / 1000.0);
     metrics_->fit_seconds.Observe(rest_ms / 1000.0);
   }
-  return ReplyFromEstimate(*estimate, upload.header.sample_name());
+  v1::EstimateReply reply = ReplyFromEstimate(*estimate, upload.header.sample_name());
+  reply.set_filename(upload.header.filename());
+  return reply;
 }
 
 absl::Status WeaveFitService::EstimateOne(Call* call, v1::EstimateReply* reply) {

@@ -1198,11 +1198,60 @@ absl::StatusOr<CylinderGeometry> CylinderFor(const Image& luminance,
   return cylinder;
 }
 
+// Without the cylinder's diameter a length on it is known in its radius
+// only. The pipeline runs at a nominal diameter, and the wavelength and
+// amplitude are then reported unresolved, their values in cylinder radii in
+// the reason: a guessed diameter would scale every wavelength silently.
+// The nominal diameter is a typical lab cylinder's, the one assumed before
+// the diameter was required: nothing in the pipeline decides on
+// millimetres (its priors are in thread pitches), so any would do.
+constexpr double kNominalDiameterMm = 46.0;
+
+void WithoutDiameter(Estimate* estimate) {
+  const double radius_mm = kNominalDiameterMm / 2.0;
+  auto in_radii = [&](const char* name, const Quantity& q) {
+    return q.resolved ? absl::StrFormat("the %s is %.5g ± %.2g cylinder radii", name,
+                                        q.value / radius_mm, q.stderr_value / radius_mm)
+                      : std::string();
+  };
+  const std::string wavelength = in_radii("wavelength", estimate->wavelength_mm);
+  const std::string amplitude = in_radii("amplitude", estimate->amplitude_mm);
+  if (!wavelength.empty()) {
+    estimate->warnings.push_back(absl::StrCat(
+        "wavelength and amplitude unresolved in mm: no cylinder diameter was given (--diameter-mm, "
+        "a manifest's diameter_mm or a sidecar's acquisition.cylinderDiameterMm); ",
+        wavelength, amplitude.empty() ? "" : absl::StrCat(" and ", amplitude),
+        "; multiply by the radius in mm"));
+  }
+  estimate->wavelength_mm = Quantity{};
+  estimate->amplitude_mm = Quantity{};
+}
+
+absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisition& acquisition,
+                                              const EstimateOptions& options, Estimate estimate,
+                                              StageClock& clock);
+
 absl::StatusOr<Estimate> EstimateFromLuminance(const Image& image,
                                                const Acquisition& acquisition,
                                                const EstimateOptions& options,
                                                Estimate estimate,
                                                StageClock& clock) {
+  estimate.acquisition = acquisition;
+  estimate.mode = options.mode;
+  if (acquisition.HasDiameter()) {
+    return EstimateWithDiameter(image, acquisition, options, std::move(estimate), clock);
+  }
+  Acquisition nominal = acquisition;
+  nominal.cylinder_diameter_mm = kNominalDiameterMm;
+  absl::StatusOr<Estimate> e =
+      EstimateWithDiameter(image, nominal, options, std::move(estimate), clock);
+  if (e.ok()) WithoutDiameter(&*e);
+  return e;
+}
+
+absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisition& acquisition,
+                                              const EstimateOptions& options, Estimate estimate,
+                                              StageClock& clock) {
   // One channel is used as it is; three are reduced to luminance (a copy).
   Image converted;
   if (image.channels != 1) converted = Luminance(image);
@@ -1511,10 +1560,16 @@ absl::Status Acquisition::Validate() const {
     return absl::InvalidArgumentError(absl::StrFormat(
         "phase_angle_deg must be in (-180, 180), got %g", phase_angle_rad / kDeg));
   }
-  if (!(cylinder_diameter_mm >= kMinDiameterMm && cylinder_diameter_mm <= kMaxDiameterMm)) {
+  if (HasDiameter() &&
+      !(cylinder_diameter_mm >= kMinDiameterMm && cylinder_diameter_mm <= kMaxDiameterMm)) {
     return absl::InvalidArgumentError(absl::StrFormat(
-        "cylinder_diameter_mm must be in [%g, %g] (a lab cylinder), got %g", kMinDiameterMm,
-        kMaxDiameterMm, cylinder_diameter_mm));
+        "cylinder_diameter_mm must be 0 (not given) or in [%g, %g] (a lab cylinder), got %g",
+        kMinDiameterMm, kMaxDiameterMm, cylinder_diameter_mm));
+  }
+  if (!HasDiameter() && camera_distance_mm != 0.0) {
+    return absl::InvalidArgumentError(
+        "camera_distance_mm needs cylinder_diameter_mm: the perspective is set by their ratio; "
+        "give the cylinder's diameter too, or 0 for the distance (orthographic)");
   }
   const double radius_mm = cylinder_diameter_mm / 2.0;
   if (camera_distance_mm != 0.0 &&

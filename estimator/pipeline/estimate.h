@@ -29,7 +29,11 @@ namespace weavefit {
 // What the lab knows about the photograph, in library units.
 struct Acquisition {
   double phase_angle_rad = 0.0;        // signed, in (−π, π)
-  double cylinder_diameter_mm = 46.0;  // in [kMinDiameterMm, kMaxDiameterMm]
+  // In [kMinDiameterMm, kMaxDiameterMm], or 0 = not given: then the
+  // wavelength and amplitude are reported unresolved, their values in
+  // cylinder radii in the reason (WithoutDiameter), never from a guessed
+  // diameter; a camera distance needs it (perspective is R/D).
+  double cylinder_diameter_mm = 0.0;
   double camera_distance_mm = 0.0;     // from the axis; 0 = orthographic
   PixelRegion region;                  // empty = whole image
   bool pixels_linear = false;          // skip sRGB decoding of 8-bit files
@@ -57,6 +61,7 @@ struct Acquisition {
   // (GivenCylinder::Validate); against the image's size by CheckRegion and
   // GeometryFromGiven, once the size is known.
   absl::Status Validate() const;
+  bool HasDiameter() const { return cylinder_diameter_mm != 0.0; }
   Projection GetProjection() const {
     return Projection{cylinder_diameter_mm / 2.0, camera_distance_mm};
   }
@@ -196,6 +201,10 @@ struct Estimate {
   std::vector<StageTime> timings;
   ImageSummary image;
   std::string method;
+  // What it was asked: the acquisition as given (its diameter 0 where none
+  // was) and the mode, so that a result stands on its own.
+  Acquisition acquisition;
+  Mode mode = Mode::kBalanced;
   // The azimuthal profile the estimate was made from, and the smoothing
   // (σ, rad) the peaks were located at: for plots and diagnostics.
   Profile profile;

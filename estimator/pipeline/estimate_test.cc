@@ -935,6 +935,38 @@ std::string Invalid(const Acquisition& a) {
   return std::string(s.message());
 }
 
+TEST(EstimateTest, WithoutADiameterTheWavelengthIsInRadiiNotGuessedMillimetres) {
+  // The paper's coarse copper gauze (λ 2.88 mm, h0 0.108 mm), whose glints
+  // resolve the period.
+  RenderScene scene = SinusoidScene();
+  scene.wavelength_mm = 2.88;
+  scene.amplitude_mm = 0.108;
+  absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  ASSERT_TRUE(rendered.ok()) << rendered.status();
+  const Rendered& r = *rendered;
+  absl::StatusOr<Estimate> mm = EstimateFromImage(r.image, Lab(10.0), EstimateOptions());
+  ASSERT_TRUE(mm.ok()) << mm.status();
+  ASSERT_TRUE(mm->wavelength_mm.resolved) << mm->BriefReport();
+  Acquisition none = Lab(10.0);
+  none.cylinder_diameter_mm = 0.0;
+  absl::StatusOr<Estimate> e = EstimateFromImage(r.image, none, EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_FALSE(e->wavelength_mm.resolved);
+  EXPECT_FALSE(e->amplitude_mm.resolved);
+  EXPECT_EQ(e->acquisition.cylinder_diameter_mm, 0.0);
+  // The split does not depend on the diameter; the wavelength is given in
+  // cylinder radii (23 mm at the diameter Lab states) in the warning.
+  EXPECT_EQ(e->max_slope.value, mm->max_slope.value);
+  const std::string radii =
+      absl::StrFormat("the wavelength is %.5g", mm->wavelength_mm.value / 23.0);
+  bool found = false;
+  for (const std::string& w : e->warnings) {
+    found = found || (w.find("no cylinder diameter was given") != std::string::npos &&
+                      w.find(radii) != std::string::npos);
+  }
+  EXPECT_TRUE(found) << radii << "\n" << ::testing::PrintToString(e->warnings);
+}
+
 TEST(AcquisitionTest, ValidateNamesTheField) {
   EXPECT_TRUE(Lab().Validate().ok());
   EXPECT_TRUE(Lab(-179.0).Validate().ok());
@@ -950,7 +982,7 @@ TEST(AcquisitionTest, ValidateNamesTheField) {
   a = Lab();
   a.cylinder_diameter_mm = -46.0;
   EXPECT_NE(Invalid(a).find("cylinder_diameter_mm"), std::string::npos);
-  a.cylinder_diameter_mm = 0.0;
+  a.cylinder_diameter_mm = 0.05;  // thinner than a thread
   EXPECT_NE(Invalid(a).find("cylinder_diameter_mm"), std::string::npos);
   a.cylinder_diameter_mm = INFINITY;
   EXPECT_NE(Invalid(a).find("cylinder_diameter_mm"), std::string::npos);
@@ -966,6 +998,12 @@ TEST(AcquisitionTest, ValidateNamesTheField) {
   EXPECT_TRUE(a.Validate().ok());
   a.camera_distance_mm = 0.0;  // orthographic
   EXPECT_TRUE(a.Validate().ok());
+  // 0 = no diameter given: valid, but not with a camera distance, whose
+  // perspective is set by their ratio.
+  a.cylinder_diameter_mm = 0.0;
+  EXPECT_TRUE(a.Validate().ok());
+  a.camera_distance_mm = 900.0;
+  EXPECT_NE(Invalid(a).find("needs cylinder_diameter_mm"), std::string::npos);
 
   a = Lab();
   a.region.width = -5;

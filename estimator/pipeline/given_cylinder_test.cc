@@ -190,6 +190,7 @@ RenderScene GauzeScene(double phase_deg) {
 Acquisition Lab(double phase_deg) {
   Acquisition acquisition;
   acquisition.phase_angle_rad = phase_deg * kDeg;
+  acquisition.cylinder_diameter_mm = 46.0;
   acquisition.pixels_linear = true;
   return acquisition;
 }

@@ -149,11 +149,28 @@ v1::GivenCylinder GivenCylinderToProto(const GivenCylinder& given) {
   return proto;
 }
 
+v1::Acquisition AcquisitionToProto(const Acquisition& acq) {
+  v1::Acquisition proto;
+  proto.set_phase_angle_deg(acq.phase_angle_rad / kDeg);
+  proto.set_cylinder_diameter_mm(acq.cylinder_diameter_mm);
+  proto.set_camera_distance_mm(acq.camera_distance_mm);
+  v1::RegionOfInterest* roi = proto.mutable_roi();
+  roi->set_x_px(acq.region.x);
+  roi->set_y_px(acq.region.y);
+  roi->set_width_px(acq.region.width);
+  roi->set_height_px(acq.region.height);
+  proto.set_pixels_linear(acq.pixels_linear);
+  proto.set_saturation_level(acq.saturation_level);
+  if (acq.given_cylinder) *proto.mutable_given_cylinder() = GivenCylinderToProto(*acq.given_cylinder);
+  return proto;
+}
+
+const char* WeavefitVersion() { return WEAVEFIT_VERSION; }
+
 absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto) {
   Acquisition acq;
   acq.phase_angle_rad = proto.phase_angle_deg() * kDeg;
-  acq.cylinder_diameter_mm =
-      proto.cylinder_diameter_mm() == 0.0 ? 46.0 : proto.cylinder_diameter_mm();
+  acq.cylinder_diameter_mm = proto.cylinder_diameter_mm();  // 0 = not given
   acq.camera_distance_mm = proto.camera_distance_mm();
   acq.region = {proto.roi().x_px(), proto.roi().y_px(), proto.roi().width_px(),
                 proto.roi().height_px()};
@@ -260,7 +277,9 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& e,
   }
   reply.set_sample_name(sample_name);
   reply.set_method(e.method);
-  reply.set_version(WEAVEFIT_VERSION);
+  reply.set_version(WeavefitVersion());
+  *reply.mutable_acquisition() = AcquisitionToProto(e.acquisition);
+  reply.set_mode(static_cast<v1::Mode>(static_cast<int>(e.mode)));
   return reply;
 }
 

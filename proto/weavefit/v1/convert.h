@@ -14,9 +14,12 @@
 
 namespace weavefit {
 
-// Degrees → radians, 0 diameter → 46 mm, and validation of the result.
+// Degrees → radians (a 0 diameter stays 0: not given), and validation of
+// the result.
 // INVALID_ARGUMENT naming the wire field that is wrong.
 absl::StatusOr<Acquisition> AcquisitionFromProto(const v1::Acquisition& proto);
+// The acquisition as the wire carries it (AcquisitionFromProto's inverse).
+v1::Acquisition AcquisitionToProto(const Acquisition& acquisition);
 // A given cylinder on the wire and in the library (degrees ↔ radians; a 0
 // error is the default, 0.5 px; CYLINDER_SOURCE_UNSPECIFIED is GIVEN). The
 // fields are checked by Acquisition::Validate (GivenCylinder::Validate),
@@ -38,6 +41,10 @@ v1::EstimateReply ReplyFromEstimate(const Estimate& estimate,
 // Protobuf's JSON mapping with every field printed, including defaults.
 std::string ReplyToJson(const v1::EstimateReply& reply);
 absl::StatusOr<v1::EstimateReply> ReplyFromJson(const std::string& json);
+
+// weavefit's version (the project's, from CMake), as every binary's
+// --version and every reply's `version` give it.
+const char* WeavefitVersion();
 
 // {"error": {"code": "INVALID_ARGUMENT", "message": "..."}} for a status.
 std::string ErrorToJson(const absl::Status& status);
