@@ -327,7 +327,6 @@ double HighestMaximum(const std::vector<double>& s, int a, int b) {
   return best < 0 ? -1.0 : RefineMaximum(s, best);
 }
 
-
 // What every stage of PickPeaks reads: the profile, the geometry and the
 // options, with the azimuth of each bin and the small readings the stages
 // share.
@@ -336,9 +335,9 @@ struct PickInputs {
   double phase_angle_rad = 0.0;
   const Projection& projection;
   const PeakPickingOptions& options;
-  int n = 0;            // bins
-  double bin = 0.0;     // bin width, rad
-  double first = 0.0;   // azimuth of bin 0, rad
+  int n = 0;           // bins
+  double bin = 0.0;    // bin width, rad
+  double first = 0.0;  // azimuth of bin 0, rad
 
   double IndexOf(double phi) const { return (phi - first) / bin; }
   double AzimuthOf(double index) const { return first + index * bin; }
@@ -368,9 +367,8 @@ struct PickInputs {
   // Position quantisation: a bin, or a pixel's footprint in azimuth where
   // that is wider (toward the limbs), as a uniform error.
   double QuantisationAt(double phi) const {
-    const double footprint = profile.radius_px > 0
-                                 ? 1.0 / (profile.radius_px * std::max(std::cos(phi), 0.05))
-                                 : 0.0;
+    const double footprint =
+        profile.radius_px > 0 ? 1.0 / (profile.radius_px * std::max(std::cos(phi), 0.05)) : 0.0;
     return std::max(bin, footprint) / std::sqrt(12.0);
   }
 };
@@ -417,10 +415,10 @@ absl::StatusOr<Levels> ReadLevels(const PickInputs& in) {
   v.lo = std::max(1, static_cast<int>(std::floor(center - half)));
   v.hi = std::min(n - 2, static_cast<int>(std::ceil(center + half)));
   if (v.hi - v.lo < 8) {
-    return absl::InvalidArgumentError(absl::StrFormat(
-        "the mirror azimuth %.1f deg (half the phase angle) is outside the "
-        "visible part of the cylinder",
-        in.phase_angle_rad / 2.0 / kDeg));
+    return absl::InvalidArgumentError(
+        absl::StrFormat("the mirror azimuth %.1f deg (half the phase angle) is outside the "
+                        "visible part of the cylinder",
+                        in.phase_angle_rad / 2.0 / kDeg));
   }
 
   // Bins dominated by saturated pixels carry no level: raise them to their
@@ -508,8 +506,7 @@ struct BaselineFit {
     for (int i = lo; i <= hi; ++i) {
       if (i < lobe_lo || i > lobe_hi) deepest = std::min(deepest, heavy[i] - baseline[i]);
     }
-    if (lobe_lo >= 0 && lobe_lo > lo && lobe_hi < hi &&
-        deepest >= -lobe_fraction * lobe_max) {
+    if (lobe_lo >= 0 && lobe_lo > lo && lobe_hi < hi && deepest >= -lobe_fraction * lobe_max) {
       return true;
     }
     baseline = straight;
@@ -694,8 +691,8 @@ absl::StatusOr<Maxima> FindMaxima(const PickInputs& in, const Levels& levels, co
   mx.left = *std::min_element(maxima.begin(), maxima.end());
   mx.right = *std::max_element(maxima.begin(), maxima.end());
   const std::vector<double>& s = mx.s;
-  mx.top = *std::max_element(maxima.begin(), maxima.end(),
-                             [&](int a, int b) { return s[a] < s[b]; });
+  mx.top =
+      *std::max_element(maxima.begin(), maxima.end(), [&](int a, int b) { return s[a] < s[b]; });
   return mx;
 }
 
@@ -796,12 +793,10 @@ void FitChordOutside(const PickInputs& in, const std::vector<double>& s, Chord* 
   const int right_count = static_cast<int>(bins.size()) - left_count;
   if (left_count < kChordMinBinsPerSide || right_count < kChordMinBinsPerSide) return;
   const auto straight = LineFit(bins, s, [&](int k) { return static_cast<double>(k); });
-  const auto lit = LineFit(bins, s, [&](int k) {
-    return std::max(0.0, std::cos(in.AzimuthOf(k) - phase_angle_rad));
-  });
-  const auto graze = LineFit(bins, s, [&](int k) {
-    return 1.0 / std::max(std::cos(in.AzimuthOf(k)), 0.05);
-  });
+  const auto lit = LineFit(
+      bins, s, [&](int k) { return std::max(0.0, std::cos(in.AzimuthOf(k) - phase_angle_rad)); });
+  const auto graze =
+      LineFit(bins, s, [&](int k) { return 1.0 / std::max(std::cos(in.AzimuthOf(k)), 0.05); });
   // A dome of free centre, a + p·cos φ + q·sin φ = a + b·cos(φ − φ0):
   // a Lambertian term seen through vignetting is brightest toward the
   // image's centre, not at α, and neither the straight chord nor the
@@ -826,16 +821,14 @@ void FitChordOutside(const PickInputs& in, const std::vector<double>& s, Chord* 
   double other_rss = straight[2];
   if (lit[1] > 0.0) other_rss = std::min(other_rss, lit[2]);
   if (graze[1] > 0.0) other_rss = std::min(other_rss, graze[2]);
-  const bool dome_kept = std::hypot(dome(1), dome(2)) > 0.0 &&
-                         dome_at > in.AzimuthOf(out_l) && dome_at < in.AzimuthOf(out_r) &&
-                         dome_rss < kDomeRssShare * other_rss;
+  const bool dome_kept = std::hypot(dome(1), dome(2)) > 0.0 && dome_at > in.AzimuthOf(out_l) &&
+                         dome_at < in.AzimuthOf(out_r) && dome_rss < kDomeRssShare * other_rss;
   if (dome_kept) {
     chord->fitted = chord->fitted_dome = true;
     chord->dome_a = dome(0);
     chord->dome_p = dome(1);
     chord->dome_q = dome(2);
-  } else if (graze[1] > 0.0 && graze[2] < straight[2] &&
-             !(lit[1] > 0.0 && lit[2] < graze[2])) {
+  } else if (graze[1] > 0.0 && graze[2] < straight[2] && !(lit[1] > 0.0 && lit[2] < graze[2])) {
     chord->fitted = chord->fitted_grazing = true;
     chord->fit_a = graze[0];
     chord->fit_b = graze[1];
@@ -880,8 +873,8 @@ Chord DrawChord(const PickInputs& in, const Lobe& lobe, const Maxima& mx) {
   const double c_r = std::cos(in.AzimuthOf(out_r) - phase_angle_rad);
   if (c_l > 0.0 && c_r > 0.0 && std::fabs(c_l - c_r) > 1e-6) {
     const double b = (s[out_l] - s[out_r]) / (c_l - c_r);
-    const double most = std::min((s[out_l] - profile.background) / c_l,
-                                 (s[out_r] - profile.background) / c_r);
+    const double most =
+        std::min((s[out_l] - profile.background) / c_l, (s[out_r] - profile.background) / c_r);
     if (b > 0.0 && b <= most) chord.lambert = b;
   }
   // A peak whose outside point lies on the limb's edge (an outer caustic
@@ -989,13 +982,12 @@ Valley ReadValley(const PickInputs& in, const Lobe& lobe, const Maxima& mx,
       std::min(s[left_index] - chord(left_index), s[right_index] - chord(right_index));
   const double middle =
       MiddleHalfMean(left_index, right_index, [&](int k) { return s[k] - chord(k); });
-  result->valley_ratio = lower_local > 0.0 ? std::max(middle, 0.0) / lower_local
-                                           : std::max(middle, 0.0) / lower;
+  result->valley_ratio =
+      lower_local > 0.0 ? std::max(middle, 0.0) / lower_local : std::max(middle, 0.0) / lower;
   const double asym_l = CausticAsymmetry(in, mx, c, left_index, +1);
   const double asym_r = CausticAsymmetry(in, mx, c, right_index, -1);
-  result->caustic_asymmetry = std::isfinite(asym_l) && std::isfinite(asym_r)
-                                  ? std::min(asym_l, asym_r)
-                                  : 0.0;
+  result->caustic_asymmetry =
+      std::isfinite(asym_l) && std::isfinite(asym_r) ? std::min(asym_l, asym_r) : 0.0;
   return valley;
 }
 
@@ -1104,8 +1096,7 @@ struct SplitSpread {
 
 // The highest maximum of h (the profile smoothed over a comb) on each side
 // of `mid` within the lobe, into *l and *r; whether they stand apart.
-bool HeavyPeaks(const std::vector<double>& h, const Lobe& lobe, double mid, double* l,
-                double* r) {
+bool HeavyPeaks(const std::vector<double>& h, const Lobe& lobe, double mid, double* l, double* r) {
   *l = HighestMaximum(h, lobe.lobe_lo, static_cast<int>(std::floor(mid)));
   *r = HighestMaximum(h, static_cast<int>(std::ceil(mid)), lobe.lobe_hi);
   return *l >= 0 && *r >= 0 && *r - *l >= 3;
@@ -1130,17 +1121,14 @@ double CombValleyShare(const std::vector<double>& hs, double hl, double hr, doub
   // there, 0.25-0.98 of the peaks, is met to within 30 %).
   const int il = static_cast<int>(std::lround(hl));
   const int ir = static_cast<int>(std::lround(hr));
-  const double valley_h =
-      MiddleHalfMean(il, ir, [&](int k) { return hs[k] - chord_values[k]; });
+  const double valley_h = MiddleHalfMean(il, ir, [&](int k) { return hs[k] - chord_values[k]; });
   const double low_h = std::min(hs[il] - chord_values[il], hs[ir] - chord_values[ir]);
   const double sin_level = SmoothedValleyRatio(
       ProfileModel::kSinusoid,
-      InvertSmoothedSpacing(ProfileModel::kSinusoid, measured, sigma_h, mirror), sigma_h,
-      mirror);
+      InvertSmoothedSpacing(ProfileModel::kSinusoid, measured, sigma_h, mirror), sigma_h, mirror);
   const double saw_level = SmoothedValleyRatio(
       ProfileModel::kSawtooth,
-      InvertSmoothedSpacing(ProfileModel::kSawtooth, measured, sigma_h, mirror), sigma_h,
-      mirror);
+      InvertSmoothedSpacing(ProfileModel::kSawtooth, measured, sigma_h, mirror), sigma_h, mirror);
   // Only against a chord fitted to both sides: drawn through a point
   // on the limb's rise (an outer caustic 6° from the limb, scene
   // 4109), it lay above a sinusoid's filled valley.
@@ -1180,11 +1168,11 @@ absl::Status ReadComb(const PickInputs& in, const Levels& levels, const Lobe& lo
     // from the caustic can reach a tooth spacing.
     spread->comb_rad = 0.75 * gap;
     result->comb_gap_rad = gap;
-    result->warnings.push_back(absl::StrFormat(
-        "the lobe is a comb of glints (%d maxima, median spacing %.2f deg) "
-        "too narrow to smooth: the outermost glints were taken as the "
-        "peaks, half a tooth spacing counted per side in the errors",
-        static_cast<int>(teeth.at.size()), gap / kDeg));
+    result->warnings.push_back(
+        absl::StrFormat("the lobe is a comb of glints (%d maxima, median spacing %.2f deg) "
+                        "too narrow to smooth: the outermost glints were taken as the "
+                        "peaks, half a tooth spacing counted per side in the errors",
+                        static_cast<int>(teeth.at.size()), gap / kDeg));
     return absl::OkStatus();
   }
   const double mirror = 0.5 * (in.AzimuthOf(hl) + in.AzimuthOf(hr));
@@ -1203,9 +1191,9 @@ absl::Status ReadComb(const PickInputs& in, const Levels& levels, const Lobe& lo
       if ((k < lobe.lobe_lo || k > lobe.lobe_hi) && excess[k] >= teeth.min_tooth) ++outer_teeth;
     }
   }
-  if (lobe.trimmed && (std::fabs(valley_share - kCombSinusoidShare) < kCombTrimmedAmbiguity ||
-                       (outer_teeth >= 2 &&
-                        valley_share < kCombSinusoidShare + kCombTrimmedAmbiguity))) {
+  if (lobe.trimmed &&
+      (std::fabs(valley_share - kCombSinusoidShare) < kCombTrimmedAmbiguity ||
+       (outer_teeth >= 2 && valley_share < kCombSinusoidShare + kCombTrimmedAmbiguity))) {
     return absl::InvalidArgumentError(absl::StrFormat(
         "the specular lobe stands out only from a baseline drawn away from the "
         "terminator and the limb (a strong grazing scatter); its comb of glints (%d "
@@ -1215,8 +1203,8 @@ absl::Status ReadComb(const PickInputs& in, const Levels& levels, const Lobe& lo
         "level); photograph at a smaller phase angle",
         static_cast<int>(teeth.at.size()), gap / kDeg, valley_share, outer_teeth));
   }
-  result->model = valley_share >= kCombSinusoidShare ? ProfileModel::kSinusoid
-                                                     : ProfileModel::kSawtooth;
+  result->model =
+      valley_share >= kCombSinusoidShare ? ProfileModel::kSinusoid : ProfileModel::kSawtooth;
   const double m = InvertSmoothedSpacing(result->model, measured, sigma_h, mirror);
   result->spacing_rad = PeakSpacingRad(m);
   result->mirror_rad = mirror;
@@ -1324,8 +1312,8 @@ void SplitErrors(const PickInputs& in, const SplitSpread& spread, PeakPickingRes
   // (kSawtoothShapeFloor), is common to the sample.
   const double shape_rad =
       result->model == ProfileModel::kSawtooth ? kSawtoothShapeFloor * result->spacing_rad : 0.0;
-  result->spacing_systematic_rad = std::sqrt(q2 + 2.0 * comb_rad * comb_rad +
-                                             pull_rad * pull_rad + shape_rad * shape_rad);
+  result->spacing_systematic_rad =
+      std::sqrt(q2 + 2.0 * comb_rad * comb_rad + pull_rad * pull_rad + shape_rad * shape_rad);
   result->mirror_systematic_rad = std::sqrt(0.25 * q2 + 0.5 * comb_rad * comb_rad);
   result->spacing_stderr_rad = std::hypot(Stddev(spread.spacings), result->spacing_systematic_rad);
   result->mirror_stderr_rad = std::hypot(Stddev(spread.mirrors), result->mirror_systematic_rad);
@@ -1354,8 +1342,7 @@ absl::Status ReadSplit(const PickInputs& in, const Levels& levels, const Lobe& l
   // fills its valley to 0.095 of the peaks only, but its
   // peaks' asymmetry reads 0.36-0.40; over 249 random sawtooth scenes the
   // lower of the two reads at most 0.045, over the fixtures' at most 0.03.
-  result->model = teeth.at.size() < 3 &&
-                          result->valley_ratio < in.options.sawtooth_valley_ratio &&
+  result->model = teeth.at.size() < 3 && result->valley_ratio < in.options.sawtooth_valley_ratio &&
                           result->caustic_asymmetry < kSinusoidShoulder
                       ? ProfileModel::kSawtooth
                       : ProfileModel::kSinusoid;
@@ -1365,8 +1352,8 @@ absl::Status ReadSplit(const PickInputs& in, const Levels& levels, const Lobe& l
   result->mirror_rad = 0.5 * (result->left_peak_rad + result->right_peak_rad);
   SplitSpread spread;
   if (teeth.at.size() >= 3) {
-    if (absl::Status comb = ReadComb(in, levels, lobe, mx, valley, teeth, &resampler, result,
-                                     &spread);
+    if (absl::Status comb =
+            ReadComb(in, levels, lobe, mx, valley, teeth, &resampler, result, &spread);
         !comb.ok()) {
       return comb;
     }
@@ -1432,11 +1419,11 @@ absl::Status ReadSinglePeak(const PickInputs& in, const Levels& levels, const Lo
   }
   result->mirror_systematic_rad = in.QuantisationAt(result->mirror_rad);
   result->mirror_stderr_rad = std::hypot(Stddev(mirrors), result->mirror_systematic_rad);
-  result->warnings.push_back(absl::StrFormat(
-      "a single specular peak (FWHM %.2f deg): any split narrower than "
-      "about that is not resolved, so peak spacing and max slope are "
-      "reported unresolved",
-      result->single_peak_fwhm_rad / kDeg));
+  result->warnings.push_back(
+      absl::StrFormat("a single specular peak (FWHM %.2f deg): any split narrower than "
+                      "about that is not resolved, so peak spacing and max slope are "
+                      "reported unresolved",
+                      result->single_peak_fwhm_rad / kDeg));
   return absl::OkStatus();
 }
 
@@ -1474,8 +1461,8 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
       profile.block_sum.size() != static_cast<std::size_t>(n) * profile.num_blocks) {
     return absl::InvalidArgumentError("profile too short or inconsistent for peak picking");
   }
-  const PickInputs in{profile, phase_angle_rad, projection, options,
-                      n,       profile.bin_width_rad, profile.azimuth_rad.front()};
+  const PickInputs in{profile, phase_angle_rad, projection, options, n, profile.bin_width_rad,
+                      profile.azimuth_rad.front()};
   absl::StatusOr<Levels> levels = ReadLevels(in);
   if (!levels.ok()) return levels.status();
   absl::StatusOr<Lobe> lobe = IsolateLobe(in, *levels);
@@ -1496,10 +1483,10 @@ absl::StatusOr<PeakPickingResult> PickPeaks(const Profile& profile,
         "raised to their neighbours' maximum", levels->clipped_bins));
   }
   const bool split = maxima->right - maxima->left >= 3;
-  // The window cut to the scatter's lawful range (FitBaseline) also cuts off what
-  // lies within 10° of the terminator and of the limb, where a caustic may
-  // stand: one peak there is no evidence of a smooth lobe. A sawtooth at
-  // −115°, its inner caustic 1° inside the terminator and
+  // The window cut to the scatter's lawful range (FitBaseline) also cuts
+  // off what lies within 10° of the terminator and of the limb, where a
+  // caustic may stand: one peak there is no evidence of a smooth lobe. A
+  // sawtooth at −115°, its inner caustic 1° inside the terminator and
   // its outer beyond the limb, read in the cut window as the diffuse dome's
   // single peak, SMOOTH.
   if (lobe->trimmed && !split) {
