@@ -1374,11 +1374,11 @@ absl::Status ReadSplit(const PickInputs& in, const Levels& levels, const Lobe& l
     spread.pull_rad = UnpullSmoothSinusoid(in, lobe, mx, result, &spread.spacings);
   }
   SplitErrors(in, spread, result);
-  result->warnings.push_back(
+  result->caveat =
       "peak picking: blur pulls each caustic peak inward, so the spacing "
       "and max slope are biased low by up to about the peak width; "
       "SINUSOID vs SAWTOOTH is judged from the glints and the level between "
-      "the peaks only (no model fit yet)");
+      "the peaks only (no model was fitted)";
   return absl::OkStatus();
 }
 

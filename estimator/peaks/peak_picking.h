@@ -105,6 +105,10 @@ struct PeakPickingResult {
   // Share of the lobe's bins more than 5 % saturated.
   double clipped_lobe_share = 0.0;
   std::vector<std::string> warnings;
+  // What a split read by peak picking leaves out, for the warnings only
+  // where its numbers are the ones reported (a lobe fit or a comb fit that
+  // replaces them has its own account).
+  std::string caveat;
 };
 
 // Locates the specular peak(s) near α/2 in the profile. INVALID_ARGUMENT when

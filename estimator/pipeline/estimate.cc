@@ -1492,6 +1492,10 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
       }
     }
   }
+  if (estimate.method == "peak-picking" && estimate.peak_spacing_rad.resolved &&
+      !peaks->caveat.empty()) {
+    estimate.warnings.push_back(peaks->caveat);
+  }
   estimate.max_inclination_rad = MaxInclinationFromSlope(estimate.max_slope);
   if (options.include_curves) AddCurves(*peaks, acquisition, options, &estimate);
   estimate.timings = clock.laps();
