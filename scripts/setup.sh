@@ -15,6 +15,7 @@ packages=(
   clang libclang-rt-14-dev
   gnuplot-nox
   python3-grpcio python3-grpc-tools python3-protobuf python3-numpy python3-pandas
+  python3-venv python3-pip python3-setuptools python3-wheel
 )
 missing=()
 for p in "${packages[@]}"; do
