@@ -32,6 +32,10 @@ namespace {
 constexpr int kChartWidth = 1100;
 constexpr int kChartHeight = 760;
 constexpr int kThumbWidth = 560;
+// The thumbnail's key: the strip's height below the photograph, and the
+// width of each of its two columns (px).
+constexpr int kKeyHeight = 70;
+constexpr int kKeyColumn = 250;
 
 // gnuplot's own quoting: a single-quoted string with ' doubled.
 std::string Quoted(const std::string& text) {
@@ -144,6 +148,57 @@ const v1::Curve* Find(const v1::EstimateReply& reply, const std::string& label) 
   return nullptr;
 }
 
+// The level shown white: the measured profile's highest (the lobe's column
+// mean), so that the lobe stands out of the body in every photograph; a
+// quantile of the whole frame put a lobe a few columns wide, under 0.5 % of
+// the pixels, among the body's greys. Without a profile (a reply without
+// curves), the 99.5th percentile of all samples.
+double DisplayWhite(const Image& image, const v1::EstimateReply& reply) {
+  double white = 0.0;
+  if (const v1::Curve* measured = Find(reply, "measured profile")) {
+    for (double v : measured->value()) white = std::max(white, v);
+  }
+  if (!(white > 0.0)) white = Quantile(image, 0.995);
+  return std::max(1e-6, white);
+}
+
+// The azimuths (deg) the thumbnail marks: the two peaks of a resolved split
+// (mirror ± half the spacing), else the mirror azimuth.
+std::vector<double> PeakAzimuthsDeg(const v1::EstimateReply& reply) {
+  const double mirror = reply.specular_azimuth_deg().value();
+  const v1::Measurement& spacing = reply.peak_spacing_deg();
+  if (!spacing.resolved()) return {mirror};
+  return {mirror - 0.5 * spacing.value(), mirror + 0.5 * spacing.value()};
+}
+
+// One entry of the thumbnail's key: a line's colour, whether it is dashed,
+// and what it marks.
+struct KeyEntry {
+  cv::Scalar colour;
+  bool dashed = false;
+  std::string label;
+};
+
+// `thumb` with a white strip of kKeyHeight below it holding the key, two
+// entries a row.
+cv::Mat WithKey(const cv::Mat& thumb, const std::vector<KeyEntry>& entries) {
+  const int width = std::max(thumb.cols, 2 * kKeyColumn);
+  cv::Mat out(thumb.rows + kKeyHeight, width, thumb.type(), cv::Scalar(255, 255, 255));
+  thumb.copyTo(out(cv::Rect((width - thumb.cols) / 2, 0, thumb.cols, thumb.rows)));
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const int x = 8 + static_cast<int>(i % 2) * kKeyColumn;
+    const int y = thumb.rows + 18 + static_cast<int>(i / 2) * 20;
+    const KeyEntry& e = entries[i];
+    for (int dx = 0; dx < 28; dx += e.dashed ? 8 : 28) {
+      cv::line(out, cv::Point(x + dx, y - 4), cv::Point(x + std::min(28, dx + (e.dashed ? 4 : 28)), y - 4),
+               e.colour, 2, cv::LINE_AA);
+    }
+    cv::putText(out, e.label, cv::Point(x + 36, y), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                cv::Scalar(40, 40, 40), 1, cv::LINE_AA);
+  }
+  return out;
+}
+
 }  // namespace
 
 absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
@@ -152,14 +207,13 @@ absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
   DecodeOptions decode;
   absl::StatusOr<Image> image = DecodeImage(image_bytes, decode);
   if (!image.ok()) return image.status();
-  // Tone-map: the 99.5th percentile of all samples maps to white.
-  const cv::Mat display = ToneMapped(*image, 0.0, std::max(1e-6, Quantile(*image, 0.995)));
+  const cv::Mat display = ToneMapped(*image, 0.0, DisplayWhite(*image, reply));
   // The cylinder (DESIGN.md §2): the axis passes through center_x at the
   // middle row and leans right at the top by axis_angle; the limbs are the
   // lines at ±radius perpendicular to it.
   const v1::Cylinder& cyl = reply.cylinder();
   double scale = 1.0;
-  cv::Mat thumb = Reduced(display, height, max_width, &scale);
+  cv::Mat thumb = Reduced(display, height - kKeyHeight, max_width, &scale);
   const double t = cyl.axis_angle_deg() * M_PI / 180.0;
   const double mid = 0.5 * (image->height - 1);
   auto line_at = [&](double offset_px, int y) {  // column of a line parallel to the axis
@@ -186,6 +240,26 @@ absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
     cv::line(thumb, to_thumb(line_at(-cyl.radius_px(), row), row),
              to_thumb(line_at(cyl.radius_px(), row), row), axis, 1, cv::LINE_AA);
   }
+  // The peaks read (or the mirror azimuth, where the split is unresolved):
+  // ticks at both ends of the rows read, so that they hide little of the
+  // lobe, at x = R·sin φ from the axis (orthographic, as the chart's
+  // markers).
+  const cv::Scalar peak(200, 0, 200);
+  const int tick = std::max(6, (bottom - top) / 16);
+  for (double phi : PeakAzimuthsDeg(reply)) {
+    const double offset = cyl.radius_px() * std::sin(phi * M_PI / 180.0);
+    cv::line(thumb, to_thumb(line_at(offset, top), top),
+             to_thumb(line_at(offset, top + tick), top + tick), peak, width + 2, cv::LINE_AA);
+    cv::line(thumb, to_thumb(line_at(offset, bottom - tick), bottom - tick),
+             to_thumb(line_at(offset, bottom), bottom), peak, width + 2, cv::LINE_AA);
+  }
+  thumb = WithKey(thumb, {{observed, false, "limb seen"},
+                          {inferred, false, "limb inferred"},
+                          {axis, true, "axis"},
+                          {axis, false, "first and last row read"},
+                          {peak, false, reply.peak_spacing_deg().resolved()
+                                            ? "the two peaks read"
+                                            : "the mirror azimuth (one peak)"}});
   std::vector<uchar> png;
   if (!cv::imencode(".png", thumb, png)) return absl::InternalError("thumbnail not encoded");
   return std::string(png.begin(), png.end());

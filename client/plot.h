@@ -17,9 +17,12 @@
 namespace weavefit {
 
 // The photograph reduced for display: decoded, luminance or colour, scaled to
-// fit `height` × `max_width` pixels, tone-mapped (linear → sRGB after dividing by the 99.5th
-// percentile), with the cylinder's limbs (green when observed, orange when
-// inferred), its axis (dashed) and the usable rows drawn on it. PNG bytes.
+// fit `height` × `max_width` pixels with a key below it, tone-mapped (linear
+// → sRGB, the measured profile's highest level white, so that the lobe
+// shows; the 99.5th percentile without curves), with the cylinder's limbs
+// (green when observed, orange when inferred), its axis (dashed), the first
+// and last rows read, and ticks at the peaks read (or the mirror azimuth)
+// drawn on it. PNG bytes.
 absl::StatusOr<std::string> AnnotatedThumbnail(const std::string& image_bytes,
                                                const v1::EstimateReply& reply, int height,
                                                int max_width);
