@@ -707,7 +707,7 @@ std::vector<bool> AlreadyDone(const std::vector<std::string>& images, const Resu
   if (no_skip) return skip;
   std::vector<std::string> keys;
   for (std::size_t i = 0; i < done.images.size(); ++i) {
-    if (!done.failed[i]) keys.push_back(PathKey(done.images[i]));
+    if (i >= done.failed.size() || !done.failed[i]) keys.push_back(PathKey(done.images[i]));
   }
   std::sort(keys.begin(), keys.end());
   for (std::size_t i = 0; i < images.size(); ++i) {
