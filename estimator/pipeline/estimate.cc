@@ -961,9 +961,6 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
                                             LatticeWords(lattice), "; ", period_failure));
 }
 
-// One peak overturns a split read where the geometry cannot place the lobe
-// only when its fit's BIC is this many times lower than either split's.
-constexpr double kOverturnBicRatio = 3.0;
 // The lens blur (σ, px) the limbs must show for `balanced` to fit the models
 // to the profile too.
 constexpr double kFitsFromLensBlurPx = 1.0;
@@ -1143,6 +1140,7 @@ void FitModels(const PeakPickingResult& peaks, const Acquisition& acquisition,
     estimate->warnings.push_back("model fit failed, peak picking kept: no fit converged");
     return;
   }
+  estimate->lobe_fits = *fits;
   const std::size_t first_fit = estimate->candidates.size();
   for (const ModelFit& f : fits->fits) {
     estimate->candidates.push_back({f.model, "least-squares (BIC)", f.converged ? f.bic : 1e300, false});
@@ -1463,29 +1461,24 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
                           "phase angle, or the cylinder: axis at column %.1f, radius %.1f px)",
                           miss / kDeg, estimate.cylinder.center_x_px, estimate.cylinder.radius_px),
           &estimate);
-      // Nor is the split itself: where the least-squares fits ran and one
-      // peak explains the profile with a BIC kOverturnBicRatio times lower
-      // than either split's, the model named is SMOOTH. A smooth lobe at
-      // −114° on a Lambertian ramp (diffuse 0.16, 1 px lens blur) was read
-      // as a sawtooth 9° off α/2, where the fits' BICs were 402 for one
-      // peak and 5,216 and 5,258 for the splits.
-      double smooth_bic = -1.0;
-      double split_bic = -1.0;
-      for (const CandidateScore& c : estimate.candidates) {
-        if (c.method != "least-squares (BIC)" || !(c.score < 1e299)) continue;
-        if (c.model == ProfileModel::kSmooth) {
-          smooth_bic = c.score;
-        } else if (split_bic < 0.0 || c.score < split_bic) {
-          split_bic = c.score;
+      // Nor is the split itself, where one peak explains the profile far
+      // better (ChooseModelOffTheGeometry).
+      const ProfileModel model = ChooseModelOffTheGeometry(estimate.model, estimate.lobe_fits);
+      if (model != estimate.model) {
+        double split_bic = 0.0, smooth_bic = 0.0;
+        for (const ModelFit& f : estimate.lobe_fits.fits) {
+          if (!f.converged) continue;
+          if (f.model == ProfileModel::kSmooth) {
+            smooth_bic = f.bic;
+          } else if (split_bic == 0.0 || f.bic < split_bic) {
+            split_bic = f.bic;
+          }
         }
-      }
-      if (estimate.model != ProfileModel::kSmooth && smooth_bic > 0.0 &&
-          split_bic >= kOverturnBicRatio * smooth_bic) {
         estimate.warnings.push_back(absl::StrFormat(
             "model: the %s read is not where the geometry puts a split, and one peak explains "
             "the profile with a BIC %.1f times lower than a split's: SMOOTH",
             ProfileModelName(estimate.model), split_bic / smooth_bic));
-        estimate.model = ProfileModel::kSmooth;
+        estimate.model = model;
         for (CandidateScore& c : estimate.candidates) {
           c.selected = c.method == "least-squares (BIC)" && c.model == ProfileModel::kSmooth;
         }

@@ -17,6 +17,7 @@
 #include "estimator/glints/glint_period.h"
 #include "estimator/glints/round_threads.h"
 #include "estimator/glints/weave_lattice.h"
+#include "estimator/fit/profile_fit.h"
 #include "estimator/io/decode.h"
 #include "estimator/io/image.h"
 #include "estimator/optics/radiance.h"
@@ -213,6 +214,9 @@ struct Estimate {
   std::vector<ChannelSummary> channels;
   // With EstimateOptions::include_curves; empty otherwise.
   std::vector<ModelCurve> curves;
+  // The least-squares fits of the lobe, where they ran (FitProfileModels;
+  // empty otherwise): what the model was chosen from (estimator/select).
+  ProfileFitResult lobe_fits;
   // One line for logs: model, spacing and slope with their errors.
   std::string BriefReport() const;
 };

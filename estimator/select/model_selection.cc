@@ -216,4 +216,14 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
   return choice;
 }
 
+ProfileModel ChooseModelOffTheGeometry(ProfileModel named, const ProfileFitResult& fits) {
+  if (named == ProfileModel::kSmooth) return named;
+  const int smooth = ConvergedFit(fits, ProfileModel::kSmooth);
+  const int split = BestSplitFit(fits);
+  if (smooth < 0 || split < 0 || !(fits.fits[smooth].bic > 0.0)) return named;
+  return fits.fits[split].bic >= kOffGeometryBicRatio * fits.fits[smooth].bic
+             ? ProfileModel::kSmooth
+             : named;
+}
+
 }  // namespace weavefit

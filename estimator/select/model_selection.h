@@ -94,6 +94,21 @@ struct ModelChoice {
 ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult& fits,
                                const ModelSelectionOptions& options = {});
 
+// One peak overturns a split read where the geometry cannot place the lobe
+// (several degrees off (α + v)/2, its split left unresolved) only when the
+// one-peak fit's BIC is this many times lower than the better split fit's.
+inline constexpr double kOffGeometryBicRatio = 3.0;
+
+// The model named for a split read whose lobe stands where the stated
+// geometry puts no specular lobe: `named` (peak picking's or the fits'),
+// or SMOOTH where the least-squares fits ran and one peak explains the
+// profile kOffGeometryBicRatio times better (lower BIC) than either split:
+// a smooth lobe at −114° on a Lambertian ramp (diffuse 0.16, 1 px lens
+// blur) was read as a sawtooth 9° off α/2, its fits' BICs 402 for one peak
+// and 5,216 and 5,258 for the splits. `fits` may be empty (fast mode) or
+// hold no converged fit: then `named` stands.
+ProfileModel ChooseModelOffTheGeometry(ProfileModel named, const ProfileFitResult& fits);
+
 }  // namespace weavefit
 
 #endif  // WEAVEFIT_ESTIMATOR_SELECT_MODEL_SELECTION_H_

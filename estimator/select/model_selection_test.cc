@@ -230,5 +230,21 @@ TEST(ChooseProfileModelTest, UnconvergedFitsLeavePeakPickingAlone) {
   EXPECT_EQ(ChooseProfileModel(Read(ProfileModel::kSinusoid), r).fit, 1);
 }
 
+TEST(ChooseModelOffTheGeometryTest, OnePeakFarBetterThanEitherSplitIsSmooth) {
+  // The fits' BICs of a smooth lobe on a Lambertian ramp read as a sawtooth
+  // off α/2: 402 for one peak, 5,216 and 5,258 for the splits.
+  EXPECT_EQ(ChooseModelOffTheGeometry(ProfileModel::kSawtooth, Fits(402, 5216, 5258)),
+            ProfileModel::kSmooth);
+  // Under kOffGeometryBicRatio times better, the split model named stands.
+  EXPECT_EQ(ChooseModelOffTheGeometry(ProfileModel::kSawtooth, Fits(402, 1000, 5258)),
+            ProfileModel::kSawtooth);
+  // Without fits (fast mode), or none converged, too.
+  EXPECT_EQ(ChooseModelOffTheGeometry(ProfileModel::kSinusoid, ProfileFitResult()),
+            ProfileModel::kSinusoid);
+  ProfileFitResult r = Fits(402, 5216, 5258);
+  r.fits[0].converged = false;
+  EXPECT_EQ(ChooseModelOffTheGeometry(ProfileModel::kSinusoid, r), ProfileModel::kSinusoid);
+}
+
 }  // namespace
 }  // namespace weavefit
