@@ -558,7 +558,8 @@ def check(sc, outdir, mode):
     truth = rendered(sc, outdir) or render(sc, outdir)
     seconds = time.time() - t0
     image = os.path.join(outdir, sc["name"] + ".png")
-    cmd = [WEAVEFIT, "estimate", image, "--json", "--phase-angle", "%g" % sc["alpha"]]
+    cmd = [WEAVEFIT, "estimate", image, "--json", "--phase-angle", "%g" % sc["alpha"],
+           "--diameter-mm", "%g" % (2.0 * R)]
     if truth["distanceMm"] > 0:
         cmd += ["--distance-mm", "%g" % truth["distanceMm"]]
     p = subprocess.run(cmd + ["--mode", mode], capture_output=True, text=True)

@@ -28,6 +28,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CLIENT = os.path.join(ROOT, "build", "client", "weavefit")
 
 
+def diameter_mm(sidecar):
+    """The cylinder's diameter the scene states (its sidecar's acquisition)."""
+    with open(sidecar) as f:
+        return json.load(f)["acquisition"]["cylinderDiameterMm"]
+
+
 def run_seed(sidecar, seed, angles, workdir):
     """Renders the scene at each angle and estimates them jointly."""
     images = []
@@ -37,7 +43,8 @@ def run_seed(sidecar, seed, angles, workdir):
                         "--phase-angle", str(a), "--out", out], check=True, capture_output=True)
         images.append(out)
     r = subprocess.run([CLIENT, "estimate"] + images +
-                       ["--phase-angle", ",".join("%g" % a for a in angles), "--joint", "--json"],
+                       ["--phase-angle", ",".join("%g" % a for a in angles),
+                        "--diameter-mm", "%g" % diameter_mm(sidecar), "--joint", "--json"],
                        capture_output=True, text=True)
     for out in images:
         for f in (out, os.path.splitext(out)[0] + ".json"):

@@ -138,9 +138,12 @@ def check(seed, out_dir, noisy, lens_blur, mode, lab=False):
     if p.returncode:
         return seed, "RENDER-FAILED " + p.stderr.strip()[:200], flags
     with open(os.path.splitext(image)[0] + ".json") as f:
-        truth = json.load(f)["truth"]
+        sidecar = json.load(f)
+    truth = sidecar["truth"]
+    diameter = sidecar["acquisition"]["cylinderDiameterMm"]
     p = subprocess.run([WEAVEFIT, "estimate", image, "--json", "--mode", mode,
-                        "--phase-angle", "%.2f" % alpha, "--distance-mm", "%g" % distance],
+                        "--phase-angle", "%.2f" % alpha, "--diameter-mm", "%g" % diameter,
+                        "--distance-mm", "%g" % distance],
                        capture_output=True, text=True)
     try:
         est = json.loads(p.stdout)
