@@ -22,8 +22,9 @@ import subprocess
 import sys
 import tempfile
 import textwrap
-import time
 import unittest
+
+from loopback_daemon import LoopbackDaemon
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CHECKOUT = os.path.dirname(HERE)
@@ -81,14 +82,6 @@ CHECK = textwrap.dedent("""
 """)
 
 
-def read_first_line(path):
-    try:
-        with open(path) as f:
-            return f.readline().strip()
-    except FileNotFoundError:
-        return ""
-
-
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -126,19 +119,9 @@ class PythonPackage(unittest.TestCase):
                 os.symlink(os.path.join(FIXTURES, file), os.path.join(cls.photos, file))
         os.symlink(os.path.join(FIXTURES, SINUSOID), os.path.join(cls.photos, "no_sidecar.png"))
 
-        port_file = os.path.join(cls.work, "port")
-        cls.log = open(os.path.join(cls.work, "weavefitd.log"), "w")
-        cls.addClassCleanup(cls.log.close)
-        cls.daemon = subprocess.Popen(
-            [os.environ["WEAVEFITD"], "--listen", "127.0.0.1:0", "--port-file", port_file],
-            stdout=cls.log, stderr=subprocess.STDOUT)
-        cls.addClassCleanup(cls.stop_daemon)
-        deadline = time.monotonic() + 30
-        while not read_first_line(port_file):
-            if cls.daemon.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError("weavefitd did not start:\n" + cls.daemon_log())
-            time.sleep(0.05)
-        cls.server = "127.0.0.1:" + read_first_line(port_file)  # the gRPC port
+        cls.daemon = LoopbackDaemon(cls.work)
+        cls.addClassCleanup(cls.daemon.stop)
+        cls.server = cls.daemon.server
 
         script = os.path.join(cls.work, "check.py")
         with open(script, "w") as f:
@@ -150,24 +133,8 @@ class PythonPackage(unittest.TestCase):
             cwd=cls.run_dir, capture_output=True, text=True, timeout=200)
         if check.returncode != 0:
             raise RuntimeError("check script failed:\n" + check.stdout + check.stderr +
-                               cls.daemon_log())
+                               cls.daemon.log())
         cls.out = json.loads(check.stdout)
-
-    @classmethod
-    def stop_daemon(cls):
-        if cls.daemon.poll() is None:
-            cls.daemon.terminate()
-            try:
-                cls.daemon.wait(timeout=40)  # within the daemon's 30 s shutdown grace
-            except subprocess.TimeoutExpired:
-                cls.daemon.kill()
-                cls.daemon.wait()
-
-    @classmethod
-    def daemon_log(cls):
-        cls.log.flush()
-        with open(cls.log.name) as f:
-            return f.read()
 
     def test_installed_offline_with_generated_stubs(self):
         self.assertIn("Successfully installed weavefit", self.install.stdout)

@@ -14,8 +14,9 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import time
 import unittest
+
+from loopback_daemon import LoopbackDaemon
 
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "weavefit_submit.py")
 FIXTURES = os.environ.get("FIXTURES_DIR", "")
@@ -40,36 +41,9 @@ class PythonClient(unittest.TestCase):
         for name in IMAGES:
             for file in (name, os.path.splitext(name)[0] + ".json"):
                 os.symlink(os.path.join(FIXTURES, file), os.path.join(cls.photos, file))
-        port_file = os.path.join(cls.work, "port")
-        cls.log = open(os.path.join(cls.work, "weavefitd.log"), "w")
-        cls.addClassCleanup(cls.log.close)
-        cls.daemon = subprocess.Popen(
-            [os.environ["WEAVEFITD"], "--listen", "127.0.0.1:0", "--port-file", port_file],
-            stdout=cls.log, stderr=subprocess.STDOUT)
-        cls.addClassCleanup(cls.stop_daemon)
-        deadline = time.monotonic() + 30
-        while not os.path.exists(port_file):
-            if cls.daemon.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError("weavefitd did not start:\n" + cls.daemon_log())
-            time.sleep(0.05)
-        with open(port_file) as f:
-            cls.server = "127.0.0.1:" + f.readline().strip()  # first line: the gRPC port
-
-    @classmethod
-    def stop_daemon(cls):
-        if cls.daemon.poll() is None:
-            cls.daemon.terminate()
-            try:
-                cls.daemon.wait(timeout=40)  # within the daemon's 30 s shutdown grace
-            except subprocess.TimeoutExpired:
-                cls.daemon.kill()
-                cls.daemon.wait()
-
-    @classmethod
-    def daemon_log(cls):
-        cls.log.flush()
-        with open(cls.log.name) as f:
-            return f.read()
+        cls.daemon = LoopbackDaemon(cls.work)
+        cls.addClassCleanup(cls.daemon.stop)
+        cls.server = cls.daemon.server
 
     def submit(self, *paths):
         """Runs the script; returns its exit code and its table as {file name: cells}."""
@@ -83,7 +57,7 @@ class PythonClient(unittest.TestCase):
                 break  # the table ends here
             cells = re.split(r"\s{2,}", line.strip(), maxsplit=6)
             rows[os.path.basename(cells[0])] = cells
-        return run.returncode, rows, run.stdout + run.stderr + self.daemon_log()
+        return run.returncode, rows, run.stdout + run.stderr + self.daemon.log()
 
     def test_each_photograph_reads_near_its_truth(self):
         code, rows, output = self.submit(self.photos)

@@ -17,11 +17,12 @@ import os
 import shutil
 import subprocess
 import tempfile
-import time
 import unittest
 
 import numpy
 import pandas
+
+from loopback_daemon import LoopbackDaemon
 
 FIXTURES = os.environ.get("FIXTURES_DIR", "")
 BROKEN = "not_a_photograph.png"
@@ -45,35 +46,14 @@ class ResultsCsv(unittest.TestCase):
         with open(os.path.join(photos, "not_a_photograph.json"), "w") as f:
             json.dump({"acquisition": {"phaseAngleDeg": 10.0, "cylinderDiameterMm": 46.0}}, f)
         cls.photographs = len(cls.sidecars) + 1
-        port_file = os.path.join(cls.work, "port")
-        cls.log = open(os.path.join(cls.work, "weavefitd.log"), "w")
-        cls.addClassCleanup(cls.log.close)
-        cls.daemon = subprocess.Popen(
-            [os.environ["WEAVEFITD"], "--listen", "127.0.0.1:0", "--port-file", port_file],
-            stdout=cls.log, stderr=subprocess.STDOUT)
-        cls.addClassCleanup(cls.stop_daemon)
-        deadline = time.monotonic() + 30
-        while not os.path.exists(port_file) or not open(port_file).read().strip():
-            if cls.daemon.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError("weavefitd did not start")
-            time.sleep(0.05)
-        with open(port_file) as f:
-            server = "127.0.0.1:" + f.readline().strip()
+        cls.daemon = LoopbackDaemon(cls.work)
+        cls.addClassCleanup(cls.daemon.stop)
+        server = cls.daemon.server
         cls.csv = os.path.join(cls.work, "r.csv")
         cls.submitted = subprocess.run(
             [os.environ["WEAVEFIT"], "submit", photos, "--server", server, "--out", cls.csv,
              "--quiet"],
             capture_output=True, text=True, timeout=300)
-
-    @classmethod
-    def stop_daemon(cls):
-        if cls.daemon.poll() is None:
-            cls.daemon.terminate()
-            try:
-                cls.daemon.wait(timeout=40)
-            except subprocess.TimeoutExpired:
-                cls.daemon.kill()
-                cls.daemon.wait()
 
     def test_the_standard_librarys_csv_reads_every_photograph(self):
         self.assertNotEqual(self.submitted.returncode, 0, "the broken photograph fails the batch")
