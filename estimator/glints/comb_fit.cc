@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -81,124 +82,190 @@ int PartsPerBin(int pieces, int stride) {
   return ExtrapolatesPairs(pieces, stride) ? segments / 2 : segments;
 }
 
-// Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
-// Gaussian, miss g = lhs − δ − arctan(m·cos(k(s + c))), and its gradient by
-// m, λ, ln σ, c and δ. Along each sub-interval the miss is taken as linear, so
-// the Gaussian integrates to a difference of error functions. A bin whose
-// nodes all lie 8σ beyond the mirror on one side adds nothing (most bins:
-// the glints are far narrower than a pixel). Every `stride`-th node only
-// (stride divides pieces) gives a coarser, cheaper sum. With `parts`
-// non-null (PartsPerBin of them, zeroed), also the mean in parts, in column
-// order.
-double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m, double lambda,
-               double delta, double sigma, double c, double grad[5],
-               BinPart* parts = nullptr) {
-  grad[0] = grad[1] = grad[2] = grad[3] = grad[4] = 0.0;
-  const double k = 2.0 * M_PI / lambda;
-  const double width = bin.piece * stride;
-  constexpr int kMaxNodes = kMaxPieces + 1;
-  const int nodes = pieces / stride + 1;
+// The comb's shared parameters at one evaluation, with what every bin
+// needs of them.
+struct CombAt {
+  double m = 0.0, lambda = 0.0, delta = 0.0, sigma = 0.0;
+  double k = 0.0;        // 2π/λ
+  double reach = 0.0;    // arctan|m| + 8σ: no miss at a bin's ends beyond it is lit
+  bool gradient = true;  // whether the derivatives are wanted
+};
+
+CombAt MakeCombAt(double m, double lambda, double delta, double sigma, bool gradient) {
+  return {m, lambda, delta, sigma, 2.0 * M_PI / lambda, std::atan(std::fabs(m)) + 8.0 * sigma,
+          gradient};
+}
+
+constexpr int kMaxNodes = kMaxPieces + 1;
+
+// One bin's nodes (every `stride`-th): the slope h = m·cos θ and the miss
+// g = lhs − δ − arctan h at each, the Gaussian's density and half-integral
+// where |g| < 8σ, and the derivatives of g and h by m, λ and c where a
+// sub-interval that may hold light ends.
+struct BinNodes {
+  int count = 0;
   double g[kMaxNodes], h[kMaxNodes], pdf[kMaxNodes], cdf[kMaxNodes];
   double dg[kMaxNodes][3], dh[kMaxNodes][3];  // by m, λ, c
+};
+
+// A node more than 8σ beyond the mirror: +1 past it, −1 short of it, 0 near.
+int Beyond(double g, double sigma) { return g > 8.0 * sigma ? 1 : (g < -8.0 * sigma ? -1 : 0); }
+
+// Fills `out` for one bin; false where every node lies more than 8σ beyond
+// the mirror on one side (the bin is dark: most bins, the glints being far
+// narrower than a pixel).
+bool ReadBinNodes(const Row& row, const Bin& bin, int pieces, int stride, const CombAt& at,
+                  double c, BinNodes* out) {
+  const int nodes = pieces / stride + 1;
+  out->count = nodes;
   // |arctan(m·cos θ)| ≤ arctan|m|: a bin whose mirror offset lies beyond
-  // that and 8σ more at both ends (lhs is monotonic across a bin) is skipped
+  // that and 8σ more at both ends (lhs is monotonic across a bin) is dark
   // before any trigonometry.
-  {
-    const int last = bin.first_node + (nodes - 1) * stride;
-    const double reach = std::atan(std::fabs(m)) + 8.0 * sigma;
-    const double lo = std::min(row.node_lhs[bin.first_node], row.node_lhs[last]) - delta;
-    const double hi = std::max(row.node_lhs[bin.first_node], row.node_lhs[last]) - delta;
-    if (lo > reach || hi < -reach) return 0.0;
-  }
+  const int last = bin.first_node + (nodes - 1) * stride;
+  const double lhs_lo = std::min(row.node_lhs[bin.first_node], row.node_lhs[last]) - at.delta;
+  const double lhs_hi = std::max(row.node_lhs[bin.first_node], row.node_lhs[last]) - at.delta;
+  if (lhs_lo > at.reach || lhs_hi < -at.reach) return false;
   // The nodes are evenly spaced in s, so cos θ and sin θ follow by rotation
   // from the first node's.
-  const double theta0 = k * (row.node_s[bin.first_node] + c);
+  const double theta0 = at.k * (row.node_s[bin.first_node] + c);
   const double step =
-      nodes > 1 ? k * (row.node_s[bin.first_node + stride] - row.node_s[bin.first_node]) : 0.0;
+      nodes > 1 ? at.k * (row.node_s[bin.first_node + stride] - row.node_s[bin.first_node]) : 0.0;
   const double cos_step = std::cos(step), sin_step = std::sin(step);
-  double cos_t = std::cos(theta0), sin_t = std::sin(theta0);
+  double cos_t[kMaxNodes], sin_t[kMaxNodes];
+  cos_t[0] = std::cos(theta0);
+  sin_t[0] = std::sin(theta0);
+  double h_lo = at.m * cos_t[0], h_hi = h_lo;
+  for (int n = 1; n < nodes; ++n) {
+    cos_t[n] = cos_t[n - 1] * cos_step - sin_t[n - 1] * sin_step;
+    sin_t[n] = sin_t[n - 1] * cos_step + cos_t[n - 1] * sin_step;
+    h_lo = std::min(h_lo, at.m * cos_t[n]);
+    h_hi = std::max(h_hi, at.m * cos_t[n]);
+  }
+  // Every node more than 8σ from the mirror on one side (the test below,
+  // node by node) follows already from the range of h over the nodes and of
+  // lhs across the bin, since arctan is monotonic: g > 8σ at every node
+  // where even the largest h turns less than the smallest lhs − δ − 8σ, and
+  // the other way round. Most bins of a lobe lie between two glints, and
+  // this spares their arctangents.
+  const double past = lhs_lo - 8.0 * at.sigma;   // tilts below this leave g > 8σ
+  const double short_of = lhs_hi + 8.0 * at.sigma;  // tilts above this leave g < −8σ
+  if (past >= 0.5 * M_PI || (past > -0.5 * M_PI && h_hi < std::tan(past))) return false;
+  if (short_of <= -0.5 * M_PI || (short_of < 0.5 * M_PI && h_lo > std::tan(short_of))) {
+    return false;
+  }
+  int side[kMaxNodes];
   bool above = true, below = true;
   for (int n = 0; n < nodes; ++n) {
-    const int i = bin.first_node + n * stride;
-    const double arc = row.node_s[i] + c;
-    if (n > 0) {
-      const double next_cos = cos_t * cos_step - sin_t * sin_step;
-      sin_t = sin_t * cos_step + cos_t * sin_step;
-      cos_t = next_cos;
-    }
-    h[n] = m * cos_t;
-    g[n] = row.node_lhs[i] - delta - std::atan(h[n]);
-    above = above && g[n] > 8.0 * sigma;
-    below = below && g[n] < -8.0 * sigma;
-    const double inv = 1.0 / (1.0 + h[n] * h[n]);
-    const double dtheta_dlambda = -arc * k / lambda;
-    // dg/dm = −cos θ/(1+h²), dg/dθ = m·sin θ/(1+h²); dh/dm = cos θ, dh/dθ = −m·sin θ.
-    dg[n][0] = -cos_t * inv;
-    dg[n][1] = m * sin_t * inv * dtheta_dlambda;
-    dg[n][2] = m * sin_t * inv * k;
-    dh[n][0] = cos_t;
-    dh[n][1] = -m * sin_t * dtheta_dlambda;
-    dh[n][2] = -m * sin_t * k;
+    out->h[n] = at.m * cos_t[n];
+    out->g[n] = row.node_lhs[bin.first_node + n * stride] - at.delta - std::atan(out->h[n]);
+    side[n] = Beyond(out->g[n], at.sigma);
+    above = above && side[n] > 0;
+    below = below && side[n] < 0;
   }
-  if (above || below) return 0.0;
-  const double norm = 1.0 / (sigma * std::sqrt(2.0 * M_PI));
+  if (above || below) return false;
+  const double norm = 1.0 / (at.sigma * std::sqrt(2.0 * M_PI));
   for (int n = 0; n < nodes; ++n) {
-    const double z = g[n] / sigma;
     // Beyond 8σ the Gaussian is below 1e-14 of its peak and its integral
-    // ±1/2 to 1e-15 (the pair test below already drops such pieces).
-    if (std::fabs(z) > 8.0) {
-      pdf[n] = 0.0;
-      cdf[n] = z > 0.0 ? 0.5 : -0.5;
+    // ±1/2 to 1e-15 (BinMean drops the sub-intervals between such nodes).
+    if (side[n] != 0) {
+      out->pdf[n] = 0.0;
+      out->cdf[n] = side[n] > 0 ? 0.5 : -0.5;
       continue;
     }
-    pdf[n] = norm * std::exp(-0.5 * z * z);
-    cdf[n] = 0.5 * std::erf(z * M_SQRT1_2);
+    const double z = out->g[n] / at.sigma;
+    out->pdf[n] = norm * std::exp(-0.5 * z * z);
+    out->cdf[n] = 0.5 * std::erf(z * M_SQRT1_2);
   }
-  // One sub-interval from node a to node b, `span` pieces wide: the
-  // Gaussian over the miss taken as linear between the two nodes, times
-  // sec β at its middle, into *total and its gradient into g5.
-  auto segment = [&](int a, int b, double span, double* total, double g5[5], BinPart* part) {
-    if ((g[a] > 8.0 * sigma && g[b] > 8.0 * sigma) || (g[a] < -8.0 * sigma && g[b] < -8.0 * sigma)) {
-      return;
+  if (!at.gradient) return true;
+  for (int n = 0; n < nodes; ++n) {
+    // A sub-interval (of one node or, extrapolating, two) adds light unless
+    // both its ends lie beyond on one side: only such ends need derivatives.
+    bool needed = side[n] == 0;
+    for (int j = std::max(n - 2, 0); j <= std::min(n + 2, nodes - 1) && !needed; ++j) {
+      needed = side[j] != side[n];
     }
-    const double h_mid = 0.5 * (h[a] + h[b]);
-    const double sec = std::sqrt(1.0 + h_mid * h_mid);
-    const double dsec = h_mid / sec;
-    const double delta = g[b] - g[a];
-    double piece, d_ga, d_gb, d_log_sigma;
-    if (std::fabs(delta) > 1e-2 * sigma) {
-      const double diff = cdf[b] - cdf[a];
-      piece = diff * span / delta;
-      d_gb = span * (pdf[b] / delta - diff / (delta * delta));
-      d_ga = span * (-pdf[a] / delta + diff / (delta * delta));
-      d_log_sigma = span * (-pdf[b] * g[b] + pdf[a] * g[a]) / delta;
-    } else {
-      const double z = 0.5 * (g[a] + g[b]) / sigma;
-      const double f = norm * std::exp(-0.5 * z * z);
-      piece = f * span;
-      d_ga = d_gb = -0.5 * f * z / sigma * span;
-      d_log_sigma = f * (z * z - 1.0) * span;
-    }
-    double d5[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
-    for (int p = 0; p < 3; ++p) {
-      const double d_hmid = 0.5 * (dh[a][p] + dh[b][p]);
-      d5[p == 2 ? 3 : p] = sec * (d_ga * dg[a][p] + d_gb * dg[b][p]) + piece * dsec * d_hmid;
-    }
-    d5[2] = sec * d_log_sigma;
-    d5[4] = -sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
-    *total += sec * piece;
-    for (int p = 0; p < 5; ++p) g5[p] += d5[p];
-    if (part != nullptr) {
-      part->value += sec * piece;
-      for (int p = 0; p < 5; ++p) part->grad[p] += d5[p];
-    }
-  };
+    if (!needed) continue;
+    const double arc = row.node_s[bin.first_node + n * stride] + c;
+    const double inv = 1.0 / (1.0 + out->h[n] * out->h[n]);
+    const double dtheta_dlambda = -arc * at.k / at.lambda;
+    // dg/dm = −cos θ/(1+h²), dg/dθ = m·sin θ/(1+h²); dh/dm = cos θ, dh/dθ = −m·sin θ.
+    out->dg[n][0] = -cos_t[n] * inv;
+    out->dg[n][1] = at.m * sin_t[n] * inv * dtheta_dlambda;
+    out->dg[n][2] = at.m * sin_t[n] * inv * at.k;
+    out->dh[n][0] = cos_t[n];
+    out->dh[n][1] = -at.m * sin_t[n] * dtheta_dlambda;
+    out->dh[n][2] = -at.m * sin_t[n] * at.k;
+  }
+  return true;
+}
+
+// One sub-interval of a bin from node a to node b, `span` wide: the
+// Gaussian over the miss taken as linear between the two nodes, times sec β
+// at its middle, into *total and (with at.gradient) its gradient by m, λ,
+// ln σ, c and δ into g5, and into `part` when non-null.
+void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span, double* total,
+                double g5[5], BinPart* part) {
+  const double sigma = at.sigma;
+  if ((nd.g[a] > 8.0 * sigma && nd.g[b] > 8.0 * sigma) ||
+      (nd.g[a] < -8.0 * sigma && nd.g[b] < -8.0 * sigma)) {
+    return;
+  }
+  const double h_mid = 0.5 * (nd.h[a] + nd.h[b]);
+  const double sec = std::sqrt(1.0 + h_mid * h_mid);
+  const double delta = nd.g[b] - nd.g[a];
+  double piece, d_ga, d_gb, d_log_sigma;
+  if (std::fabs(delta) > 1e-2 * sigma) {
+    const double diff = nd.cdf[b] - nd.cdf[a];
+    piece = diff * span / delta;
+    d_gb = span * (nd.pdf[b] / delta - diff / (delta * delta));
+    d_ga = span * (-nd.pdf[a] / delta + diff / (delta * delta));
+    d_log_sigma = span * (-nd.pdf[b] * nd.g[b] + nd.pdf[a] * nd.g[a]) / delta;
+  } else {
+    const double z = 0.5 * (nd.g[a] + nd.g[b]) / sigma;
+    const double norm = 1.0 / (sigma * std::sqrt(2.0 * M_PI));
+    const double f = norm * std::exp(-0.5 * z * z);
+    piece = f * span;
+    d_ga = d_gb = -0.5 * f * z / sigma * span;
+    d_log_sigma = f * (z * z - 1.0) * span;
+  }
+  *total += sec * piece;
+  if (part != nullptr) part->value += sec * piece;
+  if (!at.gradient) return;
+  const double dsec = h_mid / sec;
+  double d5[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+  for (int p = 0; p < 3; ++p) {
+    const double d_hmid = 0.5 * (nd.dh[a][p] + nd.dh[b][p]);
+    d5[p == 2 ? 3 : p] = sec * (d_ga * nd.dg[a][p] + d_gb * nd.dg[b][p]) + piece * dsec * d_hmid;
+  }
+  d5[2] = sec * d_log_sigma;
+  d5[4] = -sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
+  for (int p = 0; p < 5; ++p) g5[p] += d5[p];
+  if (part != nullptr) {
+    for (int p = 0; p < 5; ++p) part->grad[p] += d5[p];
+  }
+}
+
+// Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
+// Gaussian, miss g = lhs − δ − arctan(m·cos(k(s + c))), and (with
+// at.gradient) its gradient by m, λ, ln σ, c and δ. Along each sub-interval
+// the miss is taken as linear, so the Gaussian integrates to a difference of
+// error functions. A dark bin (ReadBinNodes) adds nothing. Every
+// `stride`-th node only (stride divides pieces) gives a coarser, cheaper
+// sum. With `parts` non-null (PartsPerBin of them, zeroed), also the mean in
+// parts, in column order.
+double BinMean(const Row& row, const Bin& bin, int pieces, int stride, const CombAt& at, double c,
+               double grad[5], BinPart* parts = nullptr) {
+  grad[0] = grad[1] = grad[2] = grad[3] = grad[4] = 0.0;
+  BinNodes nd;
+  if (!ReadBinNodes(row, bin, pieces, stride, at, c, &nd)) return 0.0;
+  const int nodes = nd.count;
+  const double width = bin.piece * stride;
   // Each sub-interval's share, for the parts (the pairs' shares combined
   // below when the sum is extrapolated).
   BinPart fine[kMaxPieces];
   double sum = 0.0;
   for (int n = 1; n < nodes; ++n) {
-    segment(n - 1, n, width, &sum, grad, parts != nullptr ? &fine[n - 1] : nullptr);
+    AddSegment(nd, at, n - 1, n, width, &sum, grad, parts != nullptr ? &fine[n - 1] : nullptr);
   }
   // The linear miss falls short where it bends most, at the caustics (the
   // glints' turning points, which set m): the sum's error goes as the
@@ -213,7 +280,8 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, double m,
     double coarse_grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
     for (int n = 2; n < nodes; n += 2) {
       BinPart pair;
-      segment(n - 2, n, 2.0 * width, &coarse, coarse_grad, parts != nullptr ? &pair : nullptr);
+      AddSegment(nd, at, n - 2, n, 2.0 * width, &coarse, coarse_grad,
+                 parts != nullptr ? &pair : nullptr);
       if (parts == nullptr) continue;
       BinPart& out = parts[n / 2 - 1];
       out.value = bin.weight * (4.0 * (fine[n - 2].value + fine[n - 1].value) - pair.value) / 3.0;
@@ -305,6 +373,22 @@ Kernel InPixelPsfKernel(double sigma_bins, int parts) {
   return k;
 }
 
+// The kernel for one PSF width, kept per thread: every row of one
+// evaluation, and of the polish's tail, blurs by the same PSF.
+const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
+  thread_local Kernel kernel;
+  thread_local bool kept_in_pixel = false;
+  thread_local double kept_sigma = std::numeric_limits<double>::quiet_NaN();
+  thread_local int kept_parts = 0;
+  if (!(sigma_bins == kept_sigma) || in_pixel != kept_in_pixel || parts != kept_parts) {
+    kernel = in_pixel ? InPixelPsfKernel(sigma_bins, parts) : SampledPsfKernel(sigma_bins);
+    kept_sigma = sigma_bins;
+    kept_in_pixel = in_pixel;
+    kept_parts = parts;
+  }
+  return kernel;
+}
+
 // Everything the model needs but the row's level and baseline.
 struct Shared {
   double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_q = 0.0;
@@ -321,16 +405,16 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
   const double sigma = std::exp(p.log_sigma);
   const double psf_px = p.PsfPx();
   const double dlog_dq = p.psf_q / (psf_px * psf_px);
+  const CombAt comb = MakeCombAt(p.m, p.lambda, p.delta, sigma, grad != nullptr);
   std::vector<double> out(n, 0.0);
   if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
   if (!in_pixel) {
     std::vector<double> raw(n);
     std::vector<std::array<double, 5>> raw_grad(n);
     for (int j = 0; j < n; ++j) {
-      raw[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, p.delta, sigma, c,
-                       raw_grad[j].data());
+      raw[j] = BinMean(row, row.bins[j], pieces, stride, comb, c, raw_grad[j].data());
     }
-    const Kernel kernel = SampledPsfKernel(psf_px / bin_px);
+    const Kernel& kernel = PsfKernel(false, psf_px / bin_px, 1);
     for (int j = 0; j < n; ++j) {
       for (int t = -kernel.reach; t <= kernel.reach; ++t) {
         const int at = std::clamp(j + t, 0, n - 1);
@@ -349,11 +433,10 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
   std::vector<char> lit(n, 0);
   double unused[5];
   for (int j = 0; j < n; ++j) {
-    BinPart* at = &parts[static_cast<std::size_t>(j) * per_bin];
-    lit[j] = BinMean(row, row.bins[j], pieces, stride, p.m, p.lambda, p.delta, sigma, c, unused,
-                     at) != 0.0;
+    BinPart* part = &parts[static_cast<std::size_t>(j) * per_bin];
+    lit[j] = BinMean(row, row.bins[j], pieces, stride, comb, c, unused, part) != 0.0;
   }
-  const Kernel kernel = InPixelPsfKernel(psf_px / bin_px, per_bin);
+  const Kernel& kernel = PsfKernel(true, psf_px / bin_px, per_bin);
   // Each lit bin's parts spread to the bins around it (light beyond the
   // row's ends is lost: the rows reach well past the lobe).
   for (int i = 0; i < n; ++i) {
