@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "absl/status/status.h"
@@ -28,10 +29,11 @@ constexpr double kBlurFloorRad = 0.02 * M_PI / 180.0;
 // quadrature (all Gaussian).
 struct ProfileSampleCost {
   ProfileSampleCost(ProfileModel model, double phi, double value, double sigma,
-                    double alpha, double fixed_blur, double phi_center, double view,
-                    bool censored)
+                    double alpha, double fixed_blur, double sharpest_blur, double phi_center,
+                    double view, bool censored)
       : model_(model), phi_(phi), value_(value), sigma_(sigma), alpha_(alpha),
-        fixed_blur_(fixed_blur), phi_center_(phi_center), view_(view), censored_(censored) {}
+        fixed_blur_(fixed_blur), sharpest_blur_(sharpest_blur), phi_center_(phi_center),
+        view_(view), censored_(censored) {}
 
   template <typename T>
   bool operator()(const T* slope, const T* p, const T* corner, T* residual) const {
@@ -45,6 +47,8 @@ struct ProfileSampleCost {
     // (DESIGN.md §2): p[0] stands for α/2, v is this sample's view angle.
     rp.mirror_rad = p[0] + T(0.5 * view_);
     rp.blur_rad = sqrt(p[1] * p[1] + T(fixed_blur_ * fixed_blur_));
+    // Every bin's sinusoid quadrature sized for the sharpest bin's blur.
+    rp.quadrature_blur_rad = std::hypot(ScalarValue(p[1]), sharpest_blur_);
     rp.scale = p[2];
     const T specular = SpecularRadiance(rp, T(phi_));
     T scatter(0.0);
@@ -60,15 +64,15 @@ struct ProfileSampleCost {
   }
 
   static ceres::CostFunction* Create(ProfileModel model, double phi, double value, double sigma,
-                                     double alpha, double fixed_blur, double phi_center,
-                                     double view, bool censored) {
+                                     double alpha, double fixed_blur, double sharpest_blur,
+                                     double phi_center, double view, bool censored) {
     return new ceres::AutoDiffCostFunction<ProfileSampleCost, 1, 1, kNuisance, 1>(
-        new ProfileSampleCost(model, phi, value, sigma, alpha, fixed_blur, phi_center, view,
-                              censored));
+        new ProfileSampleCost(model, phi, value, sigma, alpha, fixed_blur, sharpest_blur,
+                              phi_center, view, censored));
   }
 
   ProfileModel model_;
-  double phi_, value_, sigma_, alpha_, fixed_blur_, phi_center_, view_;
+  double phi_, value_, sigma_, alpha_, fixed_blur_, sharpest_blur_, phi_center_, view_;
   bool censored_;
 };
 
@@ -199,6 +203,8 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     return std::sqrt(options.smoothing_rad * options.smoothing_rad +
                      kBlurFloorRad * kBlurFloorRad + lens2);
   };
+  double sharpest_blur = std::numeric_limits<double>::infinity();
+  for (int i : used) sharpest_blur = std::min(sharpest_blur, fixed_blur_of(profile.azimuth_rad[i]));
   // Starting values: background from the window's ends, scale from the peak.
   double lo_level = smoothed[used.front()];
   double hi_level = smoothed[used.back()];
@@ -232,7 +238,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     for (int i : used) {
       problem.AddResidualBlock(
           ProfileSampleCost::Create(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
-                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), mirror0,
+                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), sharpest_blur, mirror0,
                                     ViewAngleRad(profile.azimuth_rad[i], projection), censored[i]),
           new ceres::HuberLoss(3.0), slope, p, corner);
     }
@@ -272,7 +278,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     for (int i : used) {
       const double view = ViewAngleRad(profile.azimuth_rad[i], projection);
       const ProfileSampleCost cost(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
-                                   phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), mirror0,
+                                   phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), sharpest_blur, mirror0,
                                    view, censored[i]);
       double r = 0.0;
       cost(slope, p, corner, &r);

@@ -143,12 +143,24 @@ inline const SinusoidNodes& SinusoidNodesAt(double max_slope, int n) {
 // summed: a node beyond adds a Gaussian factor below 3e-18, to the value and
 // to the derivatives alike, and the least-squares fits (T a ceres::Jet)
 // spend most of their time here.
+//
+// `quadrature_blur_rad` (> 0) sizes the quadrature for that blur instead,
+// when it is smaller: a fit whose bins each see their own blur (a lens blur
+// grows in azimuth toward the limbs) sizes it for the sharpest, so that every
+// bin of an evaluation shares one set of nodes (SinusoidNodesAt keeps one).
+// More nodes than a bin needs change its sum by rounding only.
+inline int SinusoidNodesFor(double max_slope, double blur_rad, double quadrature_blur_rad) {
+  return SinusoidQuadratureNodes(
+      max_slope, quadrature_blur_rad > 0.0 ? std::min(quadrature_blur_rad, blur_rad) : blur_rad);
+}
+
 template <typename T>
-T SinusoidTiltDensity(const T& beta, const T& max_slope, const T& blur_rad) {
+T SinusoidTiltDensity(const T& beta, const T& max_slope, const T& blur_rad,
+                      double quadrature_blur_rad = 0.0) {
   using std::atan;
   const double m = ScalarValue(max_slope);
   const double sign = m < 0.0 ? -1.0 : 1.0;
-  const int n = SinusoidQuadratureNodes(m, ScalarValue(blur_rad));
+  const int n = SinusoidNodesFor(m, ScalarValue(blur_rad), quadrature_blur_rad);
   T sum(0.0);
   ForSinusoidNodesNear(ScalarValue(beta), std::fabs(m), 9.0 * ScalarValue(blur_rad), n,
                        [&](int i) {
@@ -162,8 +174,8 @@ T SinusoidTiltDensity(const T& beta, const T& max_slope, const T& blur_rad) {
 // with the node tilts kept (SinusoidNodesAt). Equal to the template to
 // rounding.
 inline double SinusoidTiltDensity(const double& beta, const double& max_slope,
-                                  const double& blur_rad) {
-  const int n = SinusoidQuadratureNodes(max_slope, blur_rad);
+                                  const double& blur_rad, double quadrature_blur_rad = 0.0) {
+  const int n = SinusoidNodesFor(max_slope, blur_rad, quadrature_blur_rad);
   const std::vector<double>& tilts = SinusoidNodesAt(max_slope, n).tilt;
   double sum = 0.0;
   ForSinusoidNodesNear(beta, std::fabs(max_slope), 9.0 * blur_rad, n,
@@ -179,13 +191,14 @@ inline double SinusoidTiltDensity(const double& beta, const double& max_slope,
 template <int N>
 ceres::Jet<double, N> SinusoidTiltDensity(const ceres::Jet<double, N>& beta,
                                           const ceres::Jet<double, N>& max_slope,
-                                          const ceres::Jet<double, N>& blur_rad) {
+                                          const ceres::Jet<double, N>& blur_rad,
+                                          double quadrature_blur_rad = 0.0) {
   const double kInvSqrt2Pi = 0.3989422804014327;
   const double m = max_slope.a, b = beta.a, s = blur_rad.a;
   // tilt_i = arctan(m·sign·sin θ_i): its value is arctan(|m|·sin θ_i), its
   // derivative by m sign times that by |m|.
   const double sign = m < 0.0 ? -1.0 : 1.0;
-  const int n = SinusoidQuadratureNodes(m, s);
+  const int n = SinusoidNodesFor(m, s, quadrature_blur_rad);
   const SinusoidNodes& nodes = SinusoidNodesAt(m, n);
   double value = 0.0, by_beta = 0.0, by_slope = 0.0, by_blur = 0.0;
   ForSinusoidNodesNear(b, std::fabs(m), 9.0 * s, n, [&](int i) {
@@ -236,10 +249,11 @@ T SmoothTiltDensity(const T& beta, const T& blur_rad) {
 // the other models have none.
 template <typename T>
 T TiltDensity(ProfileModel model, const T& beta, const T& max_slope,
-              const T& blur_rad, const T& corner_share = T(0.0)) {
+              const T& blur_rad, const T& corner_share = T(0.0),
+              double quadrature_blur_rad = 0.0) {
   switch (model) {
     case ProfileModel::kSinusoid:
-      return SinusoidTiltDensity(beta, max_slope, blur_rad);
+      return SinusoidTiltDensity(beta, max_slope, blur_rad, quadrature_blur_rad);
     case ProfileModel::kSawtooth:
       return SawtoothTiltDensity(beta, max_slope, blur_rad, corner_share);
     case ProfileModel::kSmooth:
@@ -276,6 +290,9 @@ struct RadianceParams {
   T background = T(0.0);     // additive level (ambient, flare)
   T phase_angle_rad = T(0.0);  // α, for the lit range of scatter and diffuse
   T corner_share = T(0.0);   // a sawtooth's arc in its rounded corners
+  // The blur a sinusoid's quadrature is sized for, when smaller than
+  // blur_rad (SinusoidTiltDensity); 0: blur_rad's own.
+  double quadrature_blur_rad = 0.0;
 };
 
 // Specular radiance of the circumferential threads at azimuth φ
@@ -286,7 +303,8 @@ T SpecularRadiance(const RadianceParams<T>& p, const T& azimuth_rad) {
   using std::max;
   const T beta_star = p.mirror_rad - azimuth_rad;
   const T cos_phi = max(T(cos(azimuth_rad)), T(kMinCosAzimuth));
-  const T density = TiltDensity(p.model, beta_star, p.max_slope, p.blur_rad, p.corner_share);
+  const T density = TiltDensity(p.model, beta_star, p.max_slope, p.blur_rad, p.corner_share,
+                                p.quadrature_blur_rad);
   // cos(h): the facet sees the light at the half angle; with v = 0 it is
   // cos(α/2) = cos(mirror_rad), constant over φ.
   return p.scale * cos(p.mirror_rad) * density / (cos_phi * cos(beta_star));
