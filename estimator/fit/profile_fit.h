@@ -36,6 +36,9 @@ struct ProfileFitOptions {
   // peaks at ±35° and won on the BIC of its fewer bins).
   double window_max_slope = 0.0;
   int max_iterations = 100;
+  // Run the fits (three models from two starting blurs) on threads of their
+  // own; the answer is the same either way.
+  bool parallel = true;
 
   absl::Status Validate() const;
 };

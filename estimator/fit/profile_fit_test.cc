@@ -65,6 +65,25 @@ TEST(ProfileFitTest, SinusoidIsChosenAndItsSlopeRecovered) {
   EXPECT_LT(std::fabs(best.max_slope - 0.24), 4.0 * best.max_slope_stderr + 1e-4);
 }
 
+TEST(ProfileFitTest, FitsOnThreadsGiveTheSerialAnswerExactly) {
+  const Profile p = MakeProfile(ProfileModel::kSinusoid, 0.3, -40.0 * kDeg, 0.0005, 7);
+  ProfileFitOptions serial;
+  serial.parallel = false;
+  absl::StatusOr<ProfileFitResult> a = FitProfileModels(p, -40.0 * kDeg, Projection(), 0.28, serial);
+  absl::StatusOr<ProfileFitResult> b =
+      FitProfileModels(p, -40.0 * kDeg, Projection(), 0.28, ProfileFitOptions());
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->fits.size(), b->fits.size());
+  EXPECT_EQ(a->best, b->best);
+  for (std::size_t i = 0; i < a->fits.size(); ++i) {
+    EXPECT_EQ(a->fits[i].model, b->fits[i].model);
+    EXPECT_EQ(a->fits[i].converged, b->fits[i].converged);
+    EXPECT_EQ(a->fits[i].max_slope, b->fits[i].max_slope);
+    EXPECT_EQ(a->fits[i].bic, b->fits[i].bic);
+    EXPECT_EQ(a->fits[i].max_slope_stderr, b->fits[i].max_slope_stderr);
+  }
+}
+
 TEST(ProfileFitTest, SawtoothIsNotReportedAsASinusoid) {
   const Profile p = MakeProfile(ProfileModel::kSawtooth, 0.15, -30.0 * kDeg, 0.0005, 2);
   absl::StatusOr<ProfileFitResult> r = FitProfileModels(p, -30.0 * kDeg, Projection(), 0.14, ProfileFitOptions());
