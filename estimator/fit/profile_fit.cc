@@ -204,8 +204,12 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     return std::sqrt(options.smoothing_rad * options.smoothing_rad +
                      kBlurFloorRad * kBlurFloorRad + lens2);
   };
+  // The sharpest bin's fixed blur, which sizes every bin's sinusoid
+  // quadrature (ProfileSampleCost).
   double sharpest_blur = std::numeric_limits<double>::infinity();
-  for (int i : used) sharpest_blur = std::min(sharpest_blur, fixed_blur_of(profile.azimuth_rad[i]));
+  for (int i : used) {
+    sharpest_blur = std::min(sharpest_blur, fixed_blur_of(profile.azimuth_rad[i]));
+  }
   // Starting values: background from the window's ends, scale from the peak.
   double lo_level = smoothed[used.front()];
   double hi_level = smoothed[used.back()];
@@ -239,7 +243,8 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     for (int i : used) {
       problem.AddResidualBlock(
           ProfileSampleCost::Create(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
-                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), sharpest_blur, mirror0,
+                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]),
+                                    sharpest_blur, mirror0,
                                     ViewAngleRad(profile.azimuth_rad[i], projection), censored[i]),
           new ceres::HuberLoss(3.0), slope, p, corner);
     }
@@ -279,8 +284,8 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     for (int i : used) {
       const double view = ViewAngleRad(profile.azimuth_rad[i], projection);
       const ProfileSampleCost cost(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
-                                   phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]), sharpest_blur, mirror0,
-                                   view, censored[i]);
+                                   phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]),
+                                   sharpest_blur, mirror0, view, censored[i]);
       double r = 0.0;
       cost(slope, p, corner, &r);
       fit.curve_azimuth_rad.push_back(profile.azimuth_rad[i]);

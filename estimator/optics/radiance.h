@@ -148,7 +148,8 @@ inline const SinusoidNodes& SinusoidNodesAt(double max_slope, int n) {
 // when it is smaller: a fit whose bins each see their own blur (a lens blur
 // grows in azimuth toward the limbs) sizes it for the sharpest, so that every
 // bin of an evaluation shares one set of nodes (SinusoidNodesAt keeps one).
-// More nodes than a bin needs change its sum by rounding only.
+// More nodes than a bin needs only make its sum more exact (the midpoint
+// rule over a smooth periodic integrand has converged long before).
 inline int SinusoidNodesFor(double max_slope, double blur_rad, double quadrature_blur_rad) {
   return SinusoidQuadratureNodes(
       max_slope, quadrature_blur_rad > 0.0 ? std::min(quadrature_blur_rad, blur_rad) : blur_rad);
