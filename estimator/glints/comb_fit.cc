@@ -106,6 +106,7 @@ struct BinNodes {
   int count = 0;
   double g[kMaxNodes], h[kMaxNodes], pdf[kMaxNodes], cdf[kMaxNodes];
   double dg[kMaxNodes][3], dh[kMaxNodes][3];  // by m, λ, c
+  int side[kMaxNodes];                         // Beyond(g, σ)
 };
 
 // A node more than 8σ beyond the mirror: +1 past it, −1 short of it, 0 near.
@@ -153,7 +154,7 @@ bool ReadBinNodes(const Row& row, const Bin& bin, int pieces, int stride, const 
   if (short_of <= -0.5 * M_PI || (short_of < 0.5 * M_PI && h_lo > std::tan(short_of))) {
     return false;
   }
-  int side[kMaxNodes];
+  int* side = out->side;
   bool above = true, below = true;
   for (int n = 0; n < nodes; ++n) {
     out->h[n] = at.m * cos_t[n];
@@ -206,10 +207,7 @@ bool ReadBinNodes(const Row& row, const Bin& bin, int pieces, int stride, const 
 void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span, double* total,
                 double g5[5], BinPart* part) {
   const double sigma = at.sigma;
-  if ((nd.g[a] > 8.0 * sigma && nd.g[b] > 8.0 * sigma) ||
-      (nd.g[a] < -8.0 * sigma && nd.g[b] < -8.0 * sigma)) {
-    return;
-  }
+  if (nd.side[a] != 0 && nd.side[a] == nd.side[b]) return;
   const double h_mid = 0.5 * (nd.h[a] + nd.h[b]);
   const double sec = std::sqrt(1.0 + h_mid * h_mid);
   const double delta = nd.g[b] - nd.g[a];
