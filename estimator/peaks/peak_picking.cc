@@ -1130,8 +1130,8 @@ double CombValleyShare(const std::vector<double>& hs, double hl, double hr, doub
       ProfileModel::kSawtooth,
       InvertSmoothedSpacing(ProfileModel::kSawtooth, measured, sigma_h, mirror), sigma_h, mirror);
   // Only against a chord fitted to both sides: drawn through a point
-  // on the limb's rise (an outer caustic 6° from the limb, scene
-  // 4109), it lay above a sinusoid's filled valley.
+  // on the limb's rise (an outer caustic 6° from the limb), it lay above
+  // a sinusoid's filled valley.
   return valley.chord_fitted && low_h > 0.0 && sin_level > saw_level
              ? (valley_h / low_h - saw_level) / (sin_level - saw_level)
              : 1.0;
