@@ -3,6 +3,7 @@
 
 Usage: scripts/random_scenes.py FIRST LAST [--out DIR] [--noisy] [--lens-blur PX]
                                 [-j JOBS] [--mode MODE] [--outer-caustic LO HI] [--lab]
+                                [--scale F]
 
 Seeds FIRST..LAST-1 each pick a scene at random (the seed fixes it, so a
 failure can be rendered again): sinusoid, sawtooth or smooth; max slope
@@ -22,6 +23,9 @@ ambient level 0-0.03 and a background 0-0.05; and, each with probability
 them floating over every other thread), a background gradient (up to 0.03
 across the frame, any direction), a black-level pedestal (0.002-0.03) and the
 cylinder's ends with a mount inside the frame.
+
+--scale F renders the same scenes F times larger in pixels (the lens blur
+stays in pixels): how the estimator fares on photographs of other sizes.
 
 Each is rendered (`weavefit render`), estimated (`weavefit estimate --json`,
 with the phase angle and camera distance the lab would state) and compared
@@ -76,8 +80,12 @@ def lab_flags(seed, height):
     return flags
 
 
-def scene_flags(seed, noisy, lens_blur, lab=False):
-    """The render flags of seed's scene, and its phase angle and distance."""
+def scene_flags(seed, noisy, lens_blur, lab=False, scale=1.0):
+    """The render flags of seed's scene, and its phase angle and distance.
+
+    `scale` multiplies the frame and everything placed in pixels (the
+    cylinder, the ends); the lens blur stays in pixels, as a camera with
+    more pixels behind the same kind of lens has it."""
     r = random.Random(seed)
     model = r.choice(["smooth", "sinusoid", "sinusoid", "sawtooth", "sawtooth"])
     m = r.uniform(0.05, 0.7)
@@ -85,6 +93,7 @@ def scene_flags(seed, noisy, lens_blur, lab=False):
     h0 = m * lam / (2 * math.pi) if model == "sinusoid" else m * lam / 4
     alpha = r.choice([-1, 1]) * r.uniform(5, 120)
     w, h = r.choice([(320, 240), (640, 480), (800, 600), (1024, 768)])
+    w, h = round(w * scale), round(h * scale)
     fmt = r.choice(["png", "png", "tiff", "exr", "jpeg", "png8"])
     flags = ["--model", model, "--width", str(w), "--height", str(h),
              "--wavelength-mm", "%.4f" % lam, "--amplitude-mm", "%.5f" % h0,
@@ -129,9 +138,9 @@ def outer_caustic_deg(seed, noisy, lens_blur):
     return abs(alpha) / 2 + math.degrees(math.atan(m))
 
 
-def check(seed, out_dir, noisy, lens_blur, mode, lab=False):
+def check(seed, out_dir, noisy, lens_blur, mode, lab=False, scale=1.0):
     """(seed, verdict line, render flags)."""
-    flags, ext, alpha, distance = scene_flags(seed, noisy, lens_blur, lab)
+    flags, ext, alpha, distance = scene_flags(seed, noisy, lens_blur, lab, scale)
     image = os.path.join(out_dir, "s%d.%s" % (seed, ext))
     p = subprocess.run([WEAVEFIT, "render", "--out", image] + flags,
                        capture_output=True, text=True)
@@ -188,6 +197,10 @@ def main():
     parser.add_argument("--lab", action="store_true",
                         help="add lab-photograph conditions: stray light, axial glint lines, "
                              "background gradient, pedestal, ends and mount")
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="render each scene this many times larger in pixels (the frame, "
+                             "the cylinder, the ends; not the lens blur): the same scenes at "
+                             "other photograph sizes")
     args = parser.parse_args()
     if not os.access(WEAVEFIT, os.X_OK):
         sys.exit("build the client first: %s is missing" % WEAVEFIT)
@@ -200,7 +213,7 @@ def main():
     counts = {"ok": 0, "BAD": 0, "ERROR": 0, "RENDER-FAILED": 0}
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
         runs = pool.map(lambda s: check(s, args.out, args.noisy, args.lens_blur, args.mode,
-                                        args.lab),
+                                        args.lab, args.scale),
                         seeds)
         for seed, line, flags in runs:
             print(seed, line, flush=True)
