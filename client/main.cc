@@ -465,6 +465,7 @@ std::vector<SceneParam> SceneParams(RenderScene& s) {
       {"--background-gradient", "backgroundGradient", "change of the background level across the frame, full-scale units", &s.background_gradient},
       {"--background-gradient-deg", "backgroundGradientDeg", "direction the background brightens toward, deg; 0 = right, 90 = down", &s.background_gradient_deg},
       {"--black-level", "blackLevel", "sensor pedestal kept in the file, full-scale units", &s.black_level},
+      {"--white-level", "whiteLevel", "file value of a saturated sample, share of full scale (12-bit data in a 16-bit file: 0.99977)", &s.white_level},
       {"--gap-fraction", "gapFraction", "share of each thread pitch showing axial threads", &s.gap_fraction},
       {"--crest-tilt-deg", "crestTiltDeg", "out-of-plane tilt at a thread's edges, deg; 0 = flat ribbons", &s.crest_tilt_deg},
       {"--phase-step", "phaseStep", "weave phase between neighbouring threads, periods (0.5 = plain weave)", &s.phase_step},

@@ -22,7 +22,8 @@ ambient level 0-0.03 and a background 0-0.05; and, each with probability
 0.4-0.7, axial threads glinting as lines (width 0.05-0.3 of lambda/2, half of
 them floating over every other thread), a background gradient (up to 0.03
 across the frame, any direction), a black-level pedestal (0.002-0.03) and the
-cylinder's ends with a mount inside the frame.
+cylinder's ends with a mount inside the frame; and, with probability 0.5, a
+12-bit sensor's codes stored shifted up in 16 bits (clipping at 65520).
 
 --scale F renders the same scenes F times larger in pixels (the lens blur
 stays in pixels): how the estimator fares on photographs of other sizes.
@@ -77,6 +78,9 @@ def lab_flags(seed, height):
                   "--bottom-row", "%d" % round(height * r.uniform(0.8, 0.95)),
                   "--mount-level", "%.3f" % r.uniform(0.02, 0.1),
                   "--mount-half-width", "%.2f" % r.uniform(0.6, 1.5)]
+    if r.random() < 0.5:
+        # A 12-bit sensor's codes shifted up into the 16-bit file.
+        flags += ["--white-level", "0.99977"]
     return flags
 
 

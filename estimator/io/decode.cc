@@ -24,8 +24,57 @@
 namespace weavefit {
 namespace {
 
-// Samples at exactly an EXR file's largest value that make it a clip level.
+// Samples at exactly a file's largest value that make it a clip level.
 constexpr std::size_t kMinClipPlateau = 2;
+// The values below the largest whose counts a plateau must exceed: those
+// within this share of it (a few codes of any bit depth).
+constexpr float kPlateauNeighbourhood = 0.05f;
+
+// A clip plateau, flagged as saturated: several samples at exactly the
+// file's largest value, more than at any value just below it. A sensor
+// clips at its own full scale, which a file of more bits carries below its
+// maximum (a 12-bit ADC in a 16-bit file: 65520 of 65535) and a raw
+// converter's white level may set anywhere; a render or an EXR clipped at
+// any level does the same. Free radiance data thins toward its maximum and
+// almost never repeats it; clipped samples pile up there. Unflagged, the
+// comb fit took clipped glints for whole ones (coarse gauze at −120°,
+// 640×480 EXR: spacing 0.32° off, against 0.007° from the same render as a
+// 16-bit TIFF; with only 3 clipped samples, 0.07° off), and a lobe clipped
+// at 65520 was fitted as if its flat top were the light. A false plateau
+// (a tie at the top of an unclipped tail) costs a few samples.
+void MarkClipPlateau(Image* image) {
+  const std::vector<float>& v = image->pixels;
+  float top = 0.0f;
+  std::size_t at_top = 0;
+  for (float x : v) {
+    if (x > top) {
+      top = x;
+      at_top = 1;
+    } else if (x == top) {
+      ++at_top;
+    }
+  }
+  if (!(top > 0.0f) || at_top < kMinClipPlateau || 2 * at_top >= v.size()) return;
+  std::vector<float> near;
+  for (float x : v) {
+    if (x < top && x >= top * (1.0f - kPlateauNeighbourhood)) near.push_back(x);
+  }
+  std::sort(near.begin(), near.end());
+  std::size_t most_below = 0;
+  for (std::size_t i = 0; i < near.size();) {
+    std::size_t j = i;
+    while (j < near.size() && near[j] == near[i]) ++j;
+    most_below = std::max(most_below, j - i);
+    i = j;
+  }
+  if (at_top <= most_below) return;
+  const int channels = image->channels;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (v[i] != top) continue;
+    const std::size_t p = i / channels;
+    image->MarkSaturated(static_cast<int>(p % image->width), static_cast<int>(p / image->width));
+  }
+}
 
 std::uint32_t ReadBigEndian32(const unsigned char* p) {
   return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
@@ -366,27 +415,6 @@ absl::StatusOr<Image> DecodeExr(const std::string& bytes,
         }
       }
     }
-    if (options.saturation_level == 0) {
-      // EXR has no format maximum, but a file written from a clipped sensor
-      // or render has a plateau: several samples at exactly the largest
-      // value, which free radiance data almost never repeats. Those are
-      // clipped and flagged, as at an integer format's maximum. Unflagged,
-      // the comb fit took clipped glints for whole ones (coarse gauze at
-      // -120°, 640×480: spacing 0.32° off, against 0.007° from the same
-      // render as a 16-bit TIFF; with only 3 clipped samples, 0.07° off).
-      // Half floats do tie more often; a false plateau costs a few samples.
-      float top = 0.0f;
-      for (float v : image.pixels) top = std::max(top, v);
-      std::size_t at_top = 0;
-      for (float v : image.pixels) at_top += v == top;
-      if (top > 0.0f && at_top >= kMinClipPlateau && 2 * at_top < image.pixels.size()) {
-        for (std::size_t i = 0; i < image.pixels.size(); ++i) {
-          if (image.pixels[i] != top) continue;
-          const std::size_t p = i / image.channels;
-          image.MarkSaturated(static_cast<int>(p % image.width), static_cast<int>(p / image.width));
-        }
-      }
-    }
     return image;
   } catch (const std::exception& e) {
     return absl::InvalidArgumentError(
@@ -529,6 +557,37 @@ absl::StatusOr<ImageHeader> ReadImageHeader(const std::string& bytes) {
   return header;
 }
 
+namespace {
+
+// The samples of a photograph whose header was read and checked, by format.
+absl::StatusOr<Image> DecodeSamples(const std::string& bytes, const DecodeOptions& options,
+                                    const ImageHeader& header) {
+  if (header.format == "exr") return DecodeExr(bytes, options, header);
+  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
+  if (header.format == "png") {
+    if (absl::Status s = CheckPngComplete(p, bytes.size()); !s.ok()) return s;
+    PngLayout layout;
+    if (absl::Status s = ReadPngLayout(p, bytes.size(), &layout); !s.ok()) return s;
+    if (layout.RowReadable()) return DecodePngByRows(bytes, options, layout);
+  }
+  // libjpeg only warns about a truncated stream and fills the missing rows
+  // with grey, so OpenCV would return made-up pixels: require the end-of-image
+  // marker after the last start-of-scan (0xFF cannot occur unstuffed in
+  // entropy-coded data).
+  if (header.format == "jpeg") {
+    const std::size_t sos = bytes.rfind("\xFF\xDA");
+    const std::size_t eoi = bytes.rfind("\xFF\xD9");
+    if (sos == std::string::npos || eoi == std::string::npos || eoi < sos) {
+      return absl::InvalidArgumentError(
+          "could not decode jpeg data: no end-of-image marker after the last "
+          "scan (truncated file?)");
+    }
+  }
+  return DecodeWithOpenCv(bytes, options, header);
+}
+
+}  // namespace
+
 absl::StatusOr<Image> DecodeImage(const std::string& bytes,
                                   const DecodeOptions& options) {
   if (absl::Status s = options.Validate(); !s.ok()) return s;
@@ -541,28 +600,9 @@ absl::StatusOr<Image> DecodeImage(const std::string& bytes,
         "image of ", header->width, "x", header->height, " = ", pixels,
         " pixels exceeds the limit of ", options.max_pixels, " pixels"));
   }
-  if (header->format == "exr") return DecodeExr(bytes, options, *header);
-  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data());
-  if (header->format == "png") {
-    if (absl::Status s = CheckPngComplete(p, bytes.size()); !s.ok()) return s;
-    PngLayout layout;
-    if (absl::Status s = ReadPngLayout(p, bytes.size(), &layout); !s.ok()) return s;
-    if (layout.RowReadable()) return DecodePngByRows(bytes, options, layout);
-  }
-  // libjpeg only warns about a truncated stream and fills the missing rows
-  // with grey, so OpenCV would return made-up pixels: require the end-of-image
-  // marker after the last start-of-scan (0xFF cannot occur unstuffed in
-  // entropy-coded data).
-  if (header->format == "jpeg") {
-    const std::size_t sos = bytes.rfind("\xFF\xDA");
-    const std::size_t eoi = bytes.rfind("\xFF\xD9");
-    if (sos == std::string::npos || eoi == std::string::npos || eoi < sos) {
-      return absl::InvalidArgumentError(
-          "could not decode jpeg data: no end-of-image marker after the last "
-          "scan (truncated file?)");
-    }
-  }
-  return DecodeWithOpenCv(bytes, options, *header);
+  absl::StatusOr<Image> image = DecodeSamples(bytes, options, *header);
+  if (image.ok() && options.saturation_level == 0) MarkClipPlateau(&*image);
+  return image;
 }
 
 }  // namespace weavefit

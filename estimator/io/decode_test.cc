@@ -227,6 +227,40 @@ TEST(DecodeTest, ExrClipPlateauIsFlagged) {
   EXPECT_EQ(clipped.pixels[20], 1.0f);
 }
 
+// A 12-bit sensor's data in a 16-bit file clips at 65520, below the
+// format's maximum: the samples piled up there are flagged, in PNG and TIFF.
+TEST(DecodeTest, ClipPlateauBelowTheFormatMaximumIsFlagged) {
+  Image original = RandomImage(16, 8, 1, 0.1f, 0.9f, 11);
+  const float white = 65520.0f / 65535.0f;
+  for (int i : {5, 40, 41, 42, 77, 100}) original.pixels[i] = white;
+  for (EncodeFormat format : {EncodeFormat::kPng16, EncodeFormat::kTiff16}) {
+    const Image decoded = Decode(Encode(original, format));
+    EXPECT_EQ(decoded.SaturatedCount(), 6);
+    EXPECT_TRUE(decoded.IsSaturated(5, 0));
+    EXPECT_TRUE(decoded.IsSaturated(4, 6));
+  }
+  // With the level given, only samples at or above it are.
+  DecodeOptions options;
+  options.saturation_level = 65535;
+  EXPECT_EQ(Decode(Encode(original, EncodeFormat::kPng16), options).SaturatedCount(), 0);
+}
+
+// An unclipped tail thins toward its largest value: a tie there that is no
+// larger than the counts just below it is not a plateau.
+TEST(DecodeTest, TiesAtTheTopOfATailAreNotAPlateau) {
+  Image original = RandomImage(16, 8, 1, 0.1f, 0.5f, 13);
+  const float code = 1.0f / 65535.0f;
+  const float top = 40000.0f * code;
+  // Two samples at the top, three one code below, four two codes below.
+  original.pixels[1] = original.pixels[2] = top;
+  for (int i : {10, 11, 12}) original.pixels[i] = top - code;
+  for (int i : {20, 21, 22, 23}) original.pixels[i] = top - 2.0f * code;
+  EXPECT_EQ(Decode(Encode(original, EncodeFormat::kPng16)).SaturatedCount(), 0);
+  // Five at the top: a pile-up.
+  for (int i : {3, 4, 5}) original.pixels[i] = top;
+  EXPECT_EQ(Decode(Encode(original, EncodeFormat::kPng16)).SaturatedCount(), 5);
+}
+
 TEST(DecodeTest, JpegRoundTripIsApproximate) {
   // A smooth gradient: JPEG at quality 95 keeps it within a few codes.
   Image original;

@@ -399,12 +399,15 @@ absl::StatusOr<Levels> ReadLevels(const PickInputs& in) {
   // unclipped pixels alone leaves out the brightest glints, and most where
   // they crowd, at the caustics: an overexposed lobe then read 5-16 deg
   // short. The bound, taken as the level, is still low, but by far less.
+  // A bin with every pixel clipped (the top of an overexposed smooth lobe)
+  // is at least at the clip level, not the flanks' level its neighbours
+  // would interpolate.
   v.clip_lift.assign(n, 0.0);
   if (profile.saturated_sum.size() == static_cast<std::size_t>(n)) {
     for (int i = 0; i < n; ++i) {
-      const double count = profile.count[i];
+      const double count = std::max(profile.count[i], 0.0);
       const double clipped_px = profile.saturated[i];
-      if (!(clipped_px > 0.0) || !(count > 0.0)) continue;
+      if (!(clipped_px > 0.0)) continue;
       const double sum = (v.raw[i] + profile.background) * count + profile.saturated_sum[i];
       v.clip_lift[i] = std::max(0.0, sum / (count + clipped_px) - profile.background - v.raw[i]);
       v.raw[i] += v.clip_lift[i];
@@ -674,9 +677,11 @@ absl::StatusOr<Maxima> FindMaxima(const PickInputs& in, const Levels& levels, co
     const double gain =
         mx.light_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * mx.light_bins) : 1.0;
     for (int i = 0; i < n; ++i) {
-      mx.se[i] = profile.count[i] <= 0.0
+      // Clipped pixels count: their bound (the clip level) is read exactly.
+      const double pixels = profile.count[i] + profile.saturated[i];
+      mx.se[i] = pixels <= 0.0
                      ? 1e30  // no data: never significant
-                     : gain * std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(profile.count[i]);
+                     : gain * std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(pixels);
       mx.excess[i] = mx.s[i] - lobe.baseline[i];
     }
     maxima = SignificantMaxima(mx.excess, mx.se, lobe.lobe_lo, lobe.lobe_hi, 0.0, options);

@@ -1432,13 +1432,15 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
           peaks->mirror_rad / kDeg, miss / kDeg, expected / kDeg, estimate.cylinder.center_x_px,
           estimate.cylinder.radius_px));
     }
-    if (miss > 3.0 * peaks->mirror_stderr_rad + 1.0 * kDeg) {
+    // The mirror azimuth reported (a lobe fit's where one replaced peak
+    // picking's reading) against α/2.
+    Quantity& mirror = estimate.specular_azimuth_rad;
+    const double disagreement = std::fabs(mirror.value - expected);
+    if (disagreement > 3.0 * mirror.stderr_value + 1.0 * kDeg) {
       // Either the reading or the stated geometry is that far off, and this
       // photograph cannot tell which (a clipped smooth lobe's plateau read
       // 3.8° from α/2 with an error of 0.19°): the mirror azimuth is
       // reported as read, with the disagreement counted in its error.
-      Quantity& mirror = estimate.specular_azimuth_rad;
-      const double disagreement = std::fabs(mirror.value - expected);
       const double sys = std::hypot(mirror.systematic, disagreement);
       mirror = {mirror.value, std::hypot(mirror.Statistical(), sys), true, 0.0, sys,
                 mirror.common};

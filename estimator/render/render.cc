@@ -392,6 +392,9 @@ absl::Status RenderScene::Validate() const {
   if (!(black_level >= 0 && black_level <= 0.5)) {
     return absl::InvalidArgumentError("black_level must be in [0, 0.5]");
   }
+  if (!(white_level > 0.5 && white_level <= 1)) {
+    return absl::InvalidArgumentError("white_level must be in (0.5, 1]");
+  }
   if (samples_per_pixel < 1 || samples_per_pixel > 16) {
     return absl::InvalidArgumentError("samples_per_pixel must be in [1, 16]");
   }
@@ -495,7 +498,8 @@ void ApplyLens(const RenderScene& scene, Image& image) {
 
 // Sensor: Poisson photon noise on the signal, then the black-level pedestal
 // and Gaussian read noise of the readout, saturation at full scale and
-// quantisation. The pedestal stays in the file, as in a raw-ish lab image.
+// quantisation, all stored below the file's white level. The pedestal stays
+// in the file, as in a raw-ish lab image.
 void ApplySensor(const RenderScene& scene, Image& image) {
   const int channels = image.channels;
   std::mt19937 rng(scene.seed ^ 0x9e3779b9u);
@@ -515,7 +519,7 @@ void ApplySensor(const RenderScene& scene, Image& image) {
       image.MarkSaturated(static_cast<int>(i / channels % image.width),
                           static_cast<int>(i / channels / image.width));
     }
-    image.pixels[i] = static_cast<float>(v);
+    image.pixels[i] = static_cast<float>(v * scene.white_level);
   }
 }
 
@@ -649,6 +653,7 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
   optional("backgroundGradient", s.background_gradient, defaults.background_gradient);
   optional("backgroundGradientDeg", s.background_gradient_deg, defaults.background_gradient_deg);
   optional("blackLevel", s.black_level, defaults.black_level);
+  optional("whiteLevel", s.white_level, defaults.white_level);
   const std::string scene = object(scene_fields);
   return absl::StrCat("{\n  \"image\": \"", image_file, "\",\n  \"acquisition\": ", acquisition,
                       ",\n  \"truth\": ", truth, ",\n  \"scene\": ", scene, "\n}\n");

@@ -71,6 +71,12 @@ struct RenderScene {
   double background_gradient = 0.0;     // full-scale units over the frame
   double background_gradient_deg = 0.0; // direction, deg
   double black_level = 0.0;         // sensor pedestal kept in the file, full-scale units
+  // The file's value of a saturated sample, a share of its full scale: a
+  // sensor whose ADC has fewer bits than the file stores its codes shifted
+  // up (12 bits in 16: 65520 of 65535, 0.99977), and a raw converter's
+  // white level may lie anywhere below the maximum. Clipped samples then
+  // pile up there, not at the format's maximum.
+  double white_level = 1.0;
   double gap_fraction = 0.15;       // share of each thread pitch showing axial threads
   // Largest out-of-plane tilt of a circumferential thread's surface at its
   // edges (0 = flat ribbons). A rounded thread glints only along its crest.

@@ -12,6 +12,8 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "estimator/io/decode.h"
+#include "estimator/io/encode.h"
 
 namespace weavefit {
 namespace {
@@ -224,6 +226,33 @@ TEST(RenderTest, SaturationIsClippedAndFlagged) {
       ASSERT_LT(r.image.pixels[i], 1.0f);
     }
   }
+}
+
+// A sensor whose ADC has fewer bits than the file (12 in 16) stores its
+// clipped samples at 65520, not 65535: decoded, they still read as
+// saturated, from the pile-up at the file's largest value.
+TEST(RenderTest, WhiteLevelBelowTheFormatMaximumStillReadsAsClipped) {
+  RenderScene scene = TinyScene();
+  scene.exposure = 5.0;
+  scene.white_level = 65520.0 / 65535.0;
+  const Rendered r = Render(scene);
+  ASSERT_GT(r.image.SaturatedCount(), 2);
+  for (std::size_t i = 0; i < r.image.pixels.size(); ++i) {
+    const bool clipped = r.image.IsSaturated(static_cast<int>(i % r.image.width),
+                                             static_cast<int>(i / r.image.width));
+    if (clipped) {
+      ASSERT_EQ(r.image.pixels[i], static_cast<float>(scene.white_level));
+    } else {
+      ASSERT_LT(r.image.pixels[i], static_cast<float>(scene.white_level));
+    }
+  }
+  absl::StatusOr<std::string> png = EncodeImage(r.image, EncodeFormat::kPng16);
+  ASSERT_TRUE(png.ok()) << png.status();
+  absl::StatusOr<Image> decoded = DecodeImage(*png, DecodeOptions());
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  EXPECT_EQ(decoded->SaturatedCount(), r.image.SaturatedCount());
+  EXPECT_FLOAT_EQ(*std::max_element(decoded->pixels.begin(), decoded->pixels.end()),
+                  65520.0f / 65535.0f);
 }
 
 TEST(RenderTest, CylinderEndsShowTheBackground) {
@@ -549,6 +578,9 @@ TEST(RenderLabTest, ValidateNamesTheLabFields) {
   scene = TinyScene();
   scene.mount_half_width = 0.0;
   EXPECT_NE(message(scene).find("mount_half_width"), std::string::npos);
+  scene = TinyScene();
+  scene.white_level = 1.5;
+  EXPECT_NE(message(scene).find("white_level"), std::string::npos);
 }
 
 }  // namespace
