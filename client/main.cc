@@ -296,7 +296,8 @@ void AddMetadataFlags(CLI::App* app, MetadataFlags* flags) {
       ->capture_default_str();
   app->add_flag("--linear", flags->linear, "pixels are already linear (no sRGB decoding)");
   app->add_option("--saturation-level", flags->saturation_level,
-                  "saturation level in file units; 0 = the format's maximum")
+                  "saturation level in file units; 0 = the format's maximum, or a clip "
+                  "plateau below it (many samples at the file's largest value)")
       ->capture_default_str();
   app->add_option("--cylinder", flags->cylinder,
                   "CX,R,TILT[,RADIUS_STDERR]: use this cylinder instead of detecting it, for "
