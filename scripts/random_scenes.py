@@ -23,7 +23,8 @@ ambient level 0-0.03 and a background 0-0.05; and, each with probability
 them floating over every other thread), a background gradient (up to 0.03
 across the frame, any direction), a black-level pedestal (0.002-0.03) and the
 cylinder's ends with a mount inside the frame; and, with probability 0.5, a
-12-bit sensor's codes stored shifted up in 16 bits (clipping at 65520).
+12-bit sensor's codes stored shifted up in a 16-bit PNG or TIFF (clipping at
+65520).
 
 --scale F renders the same scenes F times larger in pixels (the lens blur
 stays in pixels): how the estimator fares on photographs of other sizes.
@@ -57,7 +58,7 @@ WEAVEFIT = os.path.join(ROOT, "build", "client", "weavefit")
 EXTENSIONS = {"png": "png", "png8": "png", "tiff": "tiff", "exr": "exr", "jpeg": "jpg"}
 
 
-def lab_flags(seed, height):
+def lab_flags(seed, height, sixteen_bit):
     """The --lab conditions of seed's scene: their own random stream."""
     r = random.Random("lab%d" % seed)
     flags = ["--stray-light", "%.4f" % r.uniform(0.005, 0.08),
@@ -78,7 +79,7 @@ def lab_flags(seed, height):
                   "--bottom-row", "%d" % round(height * r.uniform(0.8, 0.95)),
                   "--mount-level", "%.3f" % r.uniform(0.02, 0.1),
                   "--mount-half-width", "%.2f" % r.uniform(0.6, 1.5)]
-    if r.random() < 0.5:
+    if r.random() < 0.5 and sixteen_bit:
         # A 12-bit sensor's codes shifted up into the 16-bit file.
         flags += ["--white-level", "0.99977"]
     return flags
@@ -127,7 +128,7 @@ def scene_flags(seed, noisy, lens_blur, lab=False, scale=1.0):
     if r.random() < 0.2:
         flags += ["--vignetting", "%.2f" % r.uniform(0.05, 0.3)]
     if lab:
-        flags += lab_flags(seed, h)
+        flags += lab_flags(seed, h, fmt in ("png", "tiff"))
     return flags, EXTENSIONS[fmt], alpha, distance
 
 

@@ -151,27 +151,53 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   // from the row blocks (they carry the comb's scatter), shrunk by the
   // smoothing and floored by pixel noise.
   //
-  // Clipped pixels: a bin that holds any is known only from below. Its
-  // pixels at the clip level give a lower bound on its mean (LowerBounds),
-  // and smoothing, a positive average, keeps a bound a bound, so a bin whose
-  // smoothing window holds a clipped pixel is censored: the model must reach
-  // the bound and may stand above it at no cost. (Left out, such bins took a
-  // clipped lobe's caustics with them; read at the bound as levels, they
-  // would flatten them.)
+  // Clipped pixels: a bin that holds any is known from below. Its pixels at
+  // the clip level give a lower bound on its mean (LowerBounds), and
+  // smoothing, a positive average, keeps a bound a bound. How far above the
+  // bound the bin's mean lies is the light its clipped pixels hide: each
+  // clipped pixel is taken at one to two clip levels (glints clipped at an
+  // exposure that leaves most of the lobe unclipped stand above it by a
+  // fraction of it), so the smoothed bin's mean lies between the bound and
+  // the bound plus `hidden`, its clipped pixels' share at the clip level:
+  // it is read at the middle, with half that range added to its error.
+  // Where the range exceeds kCensorHiddenSigmas of the bin's own error, the
+  // bin is censored: the model must reach the bound and may stand above it
+  // at no cost. (Left out, such bins took a clipped lobe's caustics with
+  // them; read at the bound as levels, they would flatten them. Censored
+  // wherever a clipped pixel lay within 3σ of smoothing, a few hundred
+  // clipped glint pixels on a large photograph censored most of the lobe
+  // and the fits refused it.)
+  constexpr double kCensorHiddenSigmas = 2.0;
   const double sigma_bins = options.smoothing_rad / bin;
-  const std::vector<double> smoothed = Smooth(LowerBounds(profile), sigma_bins);
+  const std::vector<double> bounds = Smooth(LowerBounds(profile), sigma_bins);
+  std::vector<double> hidden_raw(n, 0.0);
+  for (int i = 0; i < n && i < static_cast<int>(profile.saturated_sum.size()); ++i) {
+    const double pixels = profile.count[i] + profile.saturated[i];
+    if (profile.saturated[i] > 0.0 && pixels > 0.0) hidden_raw[i] = profile.saturated_sum[i] / pixels;
+  }
+  const std::vector<double> hidden = Smooth(hidden_raw, sigma_bins);
   const double gain = sigma_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * sigma_bins) : 1.0;
+  auto noise_of = [&](int i) {
+    const double pixels = std::max(profile.count[i] + profile.saturated[i], 1.0);
+    const double noise = std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(pixels);
+    return std::max(profile.stderr_mean[i], noise) * gain;
+  };
   std::vector<int> used;
   std::vector<bool> censored(n, false);
-  const int span = static_cast<int>(std::ceil(3.0 * sigma_bins)) + 1;
+  std::vector<double> smoothed = bounds;
+  std::vector<double> sigma(n, 0.0);
   for (int i = 0; i < n; ++i) {
     const double phi = profile.azimuth_rad[i];
     if (profile.count[i] + profile.saturated[i] <= 0.0 || std::fabs(phi - mirror0) > reach ||
         std::fabs(phi) > limit) {
       continue;
     }
-    for (int k = std::max(0, i - span); k <= std::min(n - 1, i + span); ++k) {
-      if (profile.saturated[k] > 0.0) censored[i] = true;
+    sigma[i] = noise_of(i);
+    if (hidden[i] > kCensorHiddenSigmas * sigma[i]) {
+      censored[i] = true;
+    } else if (hidden[i] > 0.0) {
+      smoothed[i] += 0.5 * hidden[i];
+      sigma[i] = std::hypot(sigma[i], 0.5 * hidden[i]);
     }
     used.push_back(i);
   }
@@ -181,14 +207,10 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   if (num_censored > static_cast<int>(used.size()) / 2) {
     return absl::InvalidArgumentError(absl::StrCat(
         num_censored, " of ", used.size(),
-        " profile bins around the mirror azimuth hold clipped pixels: over half the lobe known "
-        "only from below does not fix its shape"));
+        " profile bins around the mirror azimuth hold clipped pixels that may hide more light "
+        "than their noise: over half the lobe known only from below does not fix its shape"));
   }
-  auto sigma_of = [&](int i) {
-    const double pixels = std::max(profile.count[i] + profile.saturated[i], 1.0);
-    const double noise = std::max(profile.PixelNoise(i), 1e-6) / std::sqrt(pixels);
-    return std::max(profile.stderr_mean[i], noise) * gain;
-  };
+  auto sigma_of = [&](int i) { return sigma[i]; };
   // The blur fixed at each bin: the smoothing and the floor, constant in
   // azimuth, and the lens PSF and the pixel's footprint (a box, σ² = 1/12
   // px²), constant in pixels: in azimuth they grow as 1/cos φ toward the

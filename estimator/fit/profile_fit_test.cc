@@ -231,10 +231,44 @@ TEST(ProfileFitTest, ClippedCausticsAreFittedAsLowerBounds) {
   EXPECT_GT(std::fabs(flat->fits[1].max_slope - 0.24), 2.0 * std::fabs(sinusoid.max_slope - 0.24))
       << flat->fits[1].max_slope << " " << sinusoid.max_slope;
 
+  // Half of every bin's pixels clipped across the window: refused.
   for (std::size_t i = 0; i < p.azimuth_rad.size(); ++i) {
-    if (std::fabs(p.azimuth_rad[i] - 10.0 * kDeg) < 30.0 * kDeg) p.saturated[i] = 1.0;
+    if (std::fabs(p.azimuth_rad[i] - 10.0 * kDeg) < 30.0 * kDeg) {
+      p.saturated[i] = 50.0;
+      p.saturated_sum[i] = 50.0 * clip;
+      p.count[i] = 50.0;
+    }
   }
   EXPECT_FALSE(FitProfileModels(p, 20.0 * kDeg, Projection(), 0.22, ProfileFitOptions()).ok());
+}
+
+// A few clipped glint pixels among many (a large photograph): the light they
+// can hide is within the bins' noise, so no bin is censored and the fit
+// stands; the same pixels censored every bin within 3σ of smoothing before.
+TEST(ProfileFitTest, AFewClippedPixelsAmongManyDoNotCensorTheLobe) {
+  Profile p = MakeProfile(ProfileModel::kSinusoid, 0.24, 20.0 * kDeg, 0.0005, 4);
+  double top = 0.0;
+  for (double v : p.mean) top = std::max(top, v);
+  p.saturated_sum.assign(p.NumBins(), 0.0);
+  int clipped = 0;
+  for (int i = 0; i < p.NumBins(); i += 7) {
+    if (std::fabs(p.azimuth_rad[i] - 10.0 * kDeg) > 20.0 * kDeg) continue;
+    // One pixel in 4,000 clipped, at the level of the lobe's top.
+    p.count[i] = 3999.0;
+    p.saturated[i] = 1.0;
+    p.saturated_sum[i] = top;
+    ++clipped;
+  }
+  ASSERT_GT(clipped, 5);
+  ProfileFitOptions options;
+  options.smoothing_rad = 2.0 * kDeg;
+  absl::StatusOr<ProfileFitResult> r =
+      FitProfileModels(p, 20.0 * kDeg, Projection(), 0.22, options);
+  ASSERT_TRUE(r.ok()) << r.status();
+  const ModelFit& sinusoid = r->fits[1];
+  ASSERT_TRUE(sinusoid.converged);
+  EXPECT_EQ(sinusoid.num_censored, 0);
+  EXPECT_NEAR(sinusoid.max_slope, 0.24, 0.01);
 }
 
 }  // namespace
