@@ -15,9 +15,11 @@ struct DecodeOptions {
   // that is otherwise applied to 8-bit files.
   bool pixels_linear = false;
   // Saturation level in the file's own units (255 for 8-bit, 65535 for
-  // 16-bit); 0 means the format's maximum (integer formats) or, for EXR, a
-  // clip plateau if there is one: at least 2 samples (and under half of
-  // them) at exactly the file's largest value.
+  // 16-bit); 0 means the format's maximum (integer formats) and, in every
+  // format, a clip plateau if there is one: at least 2 samples (and under
+  // half of them) at exactly the file's largest value, more than at any
+  // value within 5 % below it (a 12-bit sensor in a 16-bit file clips at
+  // 65520).
   double saturation_level = 0.0;
   // Largest accepted width × height, checked from the file header before
   // any pixel is allocated.
