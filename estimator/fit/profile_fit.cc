@@ -155,10 +155,10 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   // the clip level give a lower bound on its mean (LowerBounds), and
   // smoothing, a positive average, keeps a bound a bound. How far above the
   // bound the bin's mean lies is the light its clipped pixels hide: each
-  // clipped pixel is taken at one to two clip levels (glints clipped at an
-  // exposure that leaves most of the lobe unclipped stand above it by a
-  // fraction of it), so the smoothed bin's mean lies between the bound and
-  // the bound plus `hidden`, its clipped pixels' share at the clip level:
+  // clipped pixel is taken at one to 1 + kClipExcessLevels clip levels (a
+  // caustic's glints can stand several times above the level they clip at),
+  // so the smoothed bin's mean lies between the bound and the bound plus
+  // `hidden`, its clipped pixels' share times kClipExcessLevels clip levels:
   // it is read at the middle, with half that range added to its error.
   // Where the range exceeds kCensorHiddenSigmas of the bin's own error, the
   // bin is censored: the model must reach the bound and may stand above it
@@ -168,12 +168,15 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   // clipped glint pixels on a large photograph censored most of the lobe
   // and the fits refused it.)
   constexpr double kCensorHiddenSigmas = 2.0;
+  constexpr double kClipExcessLevels = 4.0;
   const double sigma_bins = options.smoothing_rad / bin;
   const std::vector<double> bounds = Smooth(LowerBounds(profile), sigma_bins);
   std::vector<double> hidden_raw(n, 0.0);
   for (int i = 0; i < n && i < static_cast<int>(profile.saturated_sum.size()); ++i) {
     const double pixels = profile.count[i] + profile.saturated[i];
-    if (profile.saturated[i] > 0.0 && pixels > 0.0) hidden_raw[i] = profile.saturated_sum[i] / pixels;
+    if (profile.saturated[i] > 0.0 && pixels > 0.0) {
+      hidden_raw[i] = kClipExcessLevels * profile.saturated_sum[i] / pixels;
+    }
   }
   const std::vector<double> hidden = Smooth(hidden_raw, sigma_bins);
   const double gain = sigma_bins >= 0.3 ? 1.0 / std::sqrt(2.0 * std::sqrt(M_PI) * sigma_bins) : 1.0;

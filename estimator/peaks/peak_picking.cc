@@ -67,9 +67,15 @@ std::vector<double> MeanFromBlocks(const Profile& p, const std::vector<int>& wei
   return whole;
 }
 
-// Sub-bin position of a maximum at index i, by a parabola through i−1..i+1.
+// Sub-bin position of a maximum at index i, by a parabola through i−1..i+1;
+// on a flat top (bins read at one clip level: ReadLevels), its middle.
 double RefineMaximum(const std::vector<double>& s, int i) {
-  if (i <= 0 || i + 1 >= static_cast<int>(s.size())) return i;
+  const int n = static_cast<int>(s.size());
+  if (i <= 0 || i + 1 >= n) return i;
+  int a = i, b = i;
+  while (a > 0 && s[a - 1] == s[i]) --a;
+  while (b + 1 < n && s[b + 1] == s[i]) ++b;
+  if (b > a) return 0.5 * (a + b);
   const double denom = s[i - 1] - 2.0 * s[i] + s[i + 1];
   if (!(denom < 0.0)) return i;
   return i + std::clamp(0.5 * (s[i - 1] - s[i + 1]) / denom, -0.5, 0.5);

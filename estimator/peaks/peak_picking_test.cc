@@ -309,6 +309,44 @@ TEST(PeakPickingTest, AnalyticSawtoothAndSmoothProfiles) {
   EXPECT_NEAR(smooth->mirror_rad / kDeg, -8.0, 0.1);
 }
 
+// A smooth lobe (σ = 2° in tilt, peak at 0.01 above the background) clipped
+// at 0.6 of its height: the bins above the clip level hold clipped pixels
+// only. They are read at the clip level, not interpolated from the flanks
+// (which left no peak to find), and the plateau's middle is the mirror.
+TEST(PeakPickingTest, AFullyClippedSmoothLobeIsReadAtItsPlateau) {
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSmooth;
+  params.mirror_rad = -8.0 * kDeg;
+  params.blur_rad = 2.0 * kDeg;
+  params.scale = 0.01;
+  params.phase_angle_rad = -16.0 * kDeg;
+  Profile profile = AnalyticProfile(params, 0.25);
+  double top = 0.0;
+  for (double v : profile.mean) top = std::max(top, v - profile.background);
+  const double clip = profile.background + 0.6 * top;
+  profile.saturated_sum.assign(profile.NumBins(), 0.0);
+  const int n = profile.NumBins();
+  int full = 0;
+  for (int i = 0; i < n; ++i) {
+    if (profile.mean[i] < clip) continue;
+    profile.saturated[i] = profile.count[i];
+    profile.saturated_sum[i] = profile.count[i] * clip;
+    profile.count[i] = 0.0;
+    profile.mean[i] = 0.0;
+    for (int b = 0; b < profile.num_blocks; ++b) {
+      profile.block_sum[static_cast<std::size_t>(b) * n + i] = 0.0;
+      profile.block_count[static_cast<std::size_t>(b) * n + i] = 0.0;
+    }
+    ++full;
+  }
+  ASSERT_GE(full, 8);
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(profile, -16.0 * kDeg, Projection(), PeakPickingOptions());
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_EQ(p->model, ProfileModel::kSmooth);
+  EXPECT_NEAR(p->mirror_rad / kDeg, -8.0, 0.2);
+}
+
 // Threads along the axis that glint in thin lines λ/2 apart over the whole
 // lit arc (as independently rendered photographs show them) stand between a
 // sawtooth's caustics as a comb of teeth, just as they stand outside them.
