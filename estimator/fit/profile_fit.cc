@@ -170,7 +170,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   constexpr double kCensorHiddenSigmas = 2.0;
   constexpr double kClipExcessLevels = 4.0;
   const double sigma_bins = options.smoothing_rad / bin;
-  const std::vector<double> bounds = Smooth(LowerBounds(profile), sigma_bins);
+  std::vector<double> smoothed = Smooth(LowerBounds(profile), sigma_bins);
   std::vector<double> hidden_raw(n, 0.0);
   for (int i = 0; i < n && i < static_cast<int>(profile.saturated_sum.size()); ++i) {
     const double pixels = profile.count[i] + profile.saturated[i];
@@ -187,7 +187,6 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
   };
   std::vector<int> used;
   std::vector<bool> censored(n, false);
-  std::vector<double> smoothed = bounds;
   std::vector<double> sigma(n, 0.0);
   for (int i = 0; i < n; ++i) {
     const double phi = profile.azimuth_rad[i];
