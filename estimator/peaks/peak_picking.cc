@@ -524,6 +524,20 @@ struct BaselineFit {
   }
 };
 
+// The profile under the heavy smoothing, which reads no bin within
+// kLimbEdgePx of either limb (those keep their own levels).
+std::vector<double> SmoothOffTheLimbEdge(const PickInputs& in, const std::vector<double>& level) {
+  int first = 0, last = in.n - 1;
+  while (first < last && in.AtLimbEdge(first)) ++first;
+  while (last > first && in.AtLimbEdge(last)) --last;
+  std::vector<double> out = level;
+  const std::vector<double> inside(level.begin() + first, level.begin() + last + 1);
+  const std::vector<double> smoothed =
+      Smooth(inside, in.options.lobe_smoothing_deg * kDeg / in.bin);
+  std::copy(smoothed.begin(), smoothed.end(), out.begin() + first);
+  return out;
+}
+
 BaselineFit FitBaseline(const PickInputs& in, const Levels& levels) {
   const PeakPickingOptions& options = in.options;
   const double phase_angle_rad = in.phase_angle_rad;
@@ -564,18 +578,26 @@ BaselineFit FitBaseline(const PickInputs& in, const Levels& levels) {
       // at 110° under a strong smooth scatter, independently rendered:
       // "deepest" −0.11 against a lobe of 0.08). The window is then cut to
       // where the law holds, kGrazingMarginDeg (plus the heavy smoothing)
-      // from both, and the three baselines are tried again there.
+      // from both, and the three baselines are tried again there. Nor does
+      // it hold within kLimbEdgePx of the limb, where a bin holds the limb's
+      // own light spread by the pixel and the lens: on a small cylinder that
+      // is more than the margin (227 px: the last 10.8 deg), and the heavy
+      // smoothing is then taken without those bins (the shared photographs
+      // at half their size: the lobe ran into the window's limb end).
       const int window_lo = f.lo;
       const int window_hi = f.hi;
       const double margin = std::sin(kGrazingMarginDeg * kDeg + options.lobe_smoothing_deg * kDeg);
       auto trusted = [&](int i) {
         const double phi = in.AzimuthOf(i);
-        return std::cos(phi - phase_angle_rad) > margin && std::cos(phi) > margin;
+        return std::cos(phi - phase_angle_rad) > margin && std::cos(phi) > margin &&
+               !in.AtLimbEdge(i);
       };
       while (f.lo < f.hi && !trusted(f.lo)) ++f.lo;
       while (f.hi > f.lo && !trusted(f.hi)) --f.hi;
       bool isolated = false;
+      const std::vector<double> heavy = f.heavy;
       if ((f.lo != window_lo || f.hi != window_hi) && f.hi - f.lo >= 8) {
+        f.heavy = SmoothOffTheLimbEdge(in, levels.filled);
         f.DrawStraight();
         f.FindLobe();
         isolated = f.lobe_lo > f.lo && f.lobe_hi < f.hi;  // lobe_lo < 0 fails too
@@ -583,6 +605,7 @@ BaselineFit FitBaseline(const PickInputs& in, const Levels& levels) {
       }
       f.trimmed = isolated;
       if (!isolated) {
+        f.heavy = heavy;
         f.lo = window_lo;
         f.hi = window_hi;
         f.DrawStraight();

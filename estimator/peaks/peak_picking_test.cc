@@ -420,6 +420,43 @@ TEST(PeakPickingTest, AStrongGrazingScatterAtOneHundredTenDegreesLeavesTheLobeIs
   EXPECT_LE(std::fabs(p->spacing_rad / kDeg - truth), 3.0 * p->spacing_stderr_rad / kDeg);
 }
 
+// On a small cylinder the limb's own light, spread by the pixel and the
+// lens, covers the last degrees of azimuth: on a radius of 227 px a glow of
+// σ = 1.5 px from the limb reaches 79 deg, where the search window around
+// α/2 ends at α = 79°. No baseline through that end isolated the lobe
+// ("not isolated", as on the shared photographs at half their size); the
+// window trimmed to the scatter's lawful range, clear of the limb's edge
+// (kLimbEdgePx), does.
+TEST(PeakPickingTest, TheLimbsGlowOnASmallCylinderLeavesTheLobeIsolated) {
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSinusoid;
+  params.max_slope = 0.394;
+  params.mirror_rad = 39.5 * kDeg;
+  params.blur_rad = 0.3 * kDeg;
+  params.scale = 0.01;
+  params.phase_angle_rad = 79.0 * kDeg;
+  const double radius_px = 227.0;
+  const double at_mirror = Radiance(params, params.mirror_rad);
+  auto extra = [&](double phi) {
+    const double lit = std::cos(phi - params.phase_angle_rad);
+    const double scatter =
+        lit <= 0.0 ? 0.0 : 0.5 * at_mirror * lit / std::max(std::cos(phi), 0.05);
+    const double from_limb_px = radius_px * (1.0 - std::fabs(std::sin(phi)));
+    const double glow =
+        phi > 0.0 ? 10.0 * at_mirror * std::exp(-0.5 * std::pow(from_limb_px / 1.5, 2)) : 0.0;
+    return scatter + glow;
+  };
+  Profile profile = AnalyticProfile(params, 0.25, extra);
+  profile.radius_px = radius_px;
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(profile, params.phase_angle_rad, Projection(), PeakPickingOptions());
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->split_resolved);
+  EXPECT_EQ(p->model, ProfileModel::kSinusoid);
+  const double truth = 2.0 * std::atan(0.394) / kDeg;
+  EXPECT_NEAR(p->spacing_rad / kDeg, truth, 1.0);
+}
+
 // A sawtooth's two narrow caustic peaks on a strong diffuse dome seen
 // through vignetting: the Lambertian term, brightest at α, is darkened
 // toward the image's edges, so the dome peaks nearer the image's centre
