@@ -1019,6 +1019,47 @@ TEST(DetectionCasesTest, AMountAcrossTheShadowIsNotDirectLight) {
   EXPECT_NEAR(g->center_x_px, rendered.truth.center_x_px, 1.0);
 }
 
+// A mount 0.8 radii wide above and below the cylinder: the stretch just
+// inside each limb (offsets 0.75-0.95) holds the mount over its first
+// twentieth, whose mean over both sides stood apart from the background, so
+// 18 of its rows beyond each end were counted as cylinder, and their steps
+// across the shadow read as direct light there (refused). Most of the
+// stretch is background: its median tells.
+TEST(DetectionCasesTest, AMountNarrowerThanTheCylinderIsNotCountedAsItsRows) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 800;
+  scene.height_px = 600;
+  scene.model = ProfileModel::kSinusoid;
+  scene.wavelength_mm = 0.542;
+  scene.amplitude_mm = 0.05436;
+  scene.phase_angle_deg = 53.73;
+  scene.center_x_px = 385.1;
+  scene.radius_px = 316.2;
+  scene.top_row_px = 88;
+  scene.bottom_row_px = 482;
+  scene.source_blur_deg = 0.57;
+  scene.exposure = 0.0066;
+  scene.diffuse = 0.035;
+  scene.ambient = 0.0228;
+  scene.background = 0.0303;
+  scene.mount_level = 0.09;
+  scene.mount_half_width = 0.8;
+  scene.stray_light = 0.0523;
+  scene.stray_texture = 0.6;
+  scene.axial_glint_width = 0.12;
+  scene.black_level = 0.0037;
+  scene.photons_full_scale = 3000.0;
+  scene.seed = 23;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<CylinderGeometry> g = DetectKnowingPhase(rendered, scene);
+  ASSERT_TRUE(g.ok()) << g.status();
+  EXPECT_GE(g->top_row, scene.top_row_px);
+  EXPECT_LE(g->top_row, scene.top_row_px + 3);
+  EXPECT_LE(g->bottom_row, scene.bottom_row_px);
+  EXPECT_GE(g->bottom_row, scene.bottom_row_px - 3);
+  EXPECT_NEAR(g->radius_px, rendered.truth.radius_px, 0.5);
+}
+
 // --- What detection saw ----------------------------------------------------------
 
 TEST(DetectionTraceTest, ARefusalRecordsTheColumnsTheEdgesAndEachCylinderTried) {
