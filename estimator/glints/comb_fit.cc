@@ -1126,4 +1126,19 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   return result;
 }
 
+PeriodReadings ComparePeriods(const CombFitResult& comb, const CombFitOptions& options,
+                              double pitch_mm, double pitch_stderr_mm) {
+  PeriodReadings r;
+  const double lambda = comb.wavelength_mm;
+  if (!(pitch_mm > 0.0) || !(lambda > 0.0)) return r;
+  const double twice = 2.0 * pitch_mm;
+  r.lattice_mm = std::fabs(twice - lambda) < std::fabs(pitch_mm - lambda) ? twice : pitch_mm;
+  const double lattice_se = pitch_stderr_mm * r.lattice_mm / pitch_mm;
+  const double comb_se = std::sqrt(std::max(1.0, comb.reduced_chi2)) *
+                         std::hypot(comb.wavelength_stderr_mm, options.wavelength_floor * lambda);
+  const double difference = std::fabs(lambda - r.lattice_mm);
+  if (difference > 2.0 * std::hypot(lattice_se, comb_se)) r.counted_mm = difference;
+  return r;
+}
+
 }  // namespace weavefit

@@ -711,5 +711,29 @@ TEST(ArcPixelsTest, InvalidRequestsAreErrors) {
             absl::StatusCode::kInvalidArgument);
 }
 
+// ComparePeriods: a comb's period 1.2 % short of twice the lines' pitch,
+// each stated to 0.2-0.3 %, is counted; one within its errors is not; a
+// lattice that is the period itself is compared as such.
+TEST(ComparePeriodsTest, ADisagreementBeyondBothErrorsIsCounted) {
+  CombFitOptions options;
+  CombFitResult comb;
+  comb.wavelength_mm = 0.9785;
+  comb.wavelength_stderr_mm = 0.0002;
+  comb.reduced_chi2 = 1.09;
+  const PeriodReadings apart = ComparePeriods(comb, options, 0.4931, 0.0013);
+  EXPECT_NEAR(apart.lattice_mm, 0.9862, 1e-9);
+  EXPECT_NEAR(apart.counted_mm, 0.0077, 1e-9);
+  // Within twice the errors combined (0.0026 for the lines): not counted.
+  const PeriodReadings close = ComparePeriods(comb, options, 0.4912, 0.0013);
+  EXPECT_NEAR(close.lattice_mm, 0.9824, 1e-9);
+  EXPECT_EQ(close.counted_mm, 0.0);
+  // A relief lattice repeats with the period itself.
+  const PeriodReadings relief = ComparePeriods(comb, options, 0.9862, 0.0026);
+  EXPECT_NEAR(relief.lattice_mm, 0.9862, 1e-9);
+  EXPECT_NEAR(relief.counted_mm, 0.0077, 1e-9);
+  // No lattice: nothing to compare.
+  EXPECT_EQ(ComparePeriods(comb, options, 0.0, 0.0).counted_mm, 0.0);
+}
+
 }  // namespace
 }  // namespace weavefit

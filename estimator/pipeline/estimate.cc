@@ -800,17 +800,28 @@ void SetWavelength(const Quantity& lambda, Estimate* estimate) {
       AmplitudeFrom(estimate->model, estimate->max_slope, estimate->wavelength_mm);
 }
 
-// The comb fit's period alone (CombWavelength), the max slope and spacing
-// left as the profile read them, and the amplitude from both.
+// The comb fit's period alone (CombWavelength, its error counting
+// ComparePeriods' difference), the max slope and spacing left as the
+// profile read them, and the amplitude from both.
 void ApplyCombPeriod(const CombFitResult& comb, const CombFitOptions& options,
-                     const Acquisition& acquisition, Estimate* estimate) {
-  SetWavelength(CombWavelength(comb, options, ProfileLimbErrors(*estimate, acquisition)),
-                estimate);
+                     const ThreadPitch& threads, const Acquisition& acquisition,
+                     Estimate* estimate) {
+  Quantity lambda = CombWavelength(comb, options, ProfileLimbErrors(*estimate, acquisition));
+  const PeriodReadings readings =
+      ComparePeriods(comb, options, threads.pitch_mm, threads.pitch_stderr_mm);
+  lambda.stderr_value = std::hypot(lambda.stderr_value, readings.counted_mm);
+  lambda.systematic = std::hypot(lambda.systematic, readings.counted_mm);
+  SetWavelength(lambda, estimate);
   estimate->warnings.push_back(absl::StrFormat(
       "wavelength from the comb of glints fitted over %d rows, started from the axial threads' "
       "glint lines; it explains %.0f%% of the rows' variance, enough for the period the lines "
-      "confirm but not for its max slope, which stays the profile's",
-      comb.rows_used, 100.0 * comb.explained));
+      "confirm but not for its max slope, which stays the profile's%s",
+      comb.rows_used, 100.0 * comb.explained,
+      readings.counted_mm > 0.0
+          ? absl::StrFormat("; the lines give %.3f mm, %.1f%% apart, beyond both readings' "
+                            "errors, and the period's error counts the difference",
+                            readings.lattice_mm, 100.0 * readings.counted_mm / comb.wavelength_mm)
+          : std::string()));
 }
 
 // The wavelength as twice the axial threads' pitch, when the comb of
@@ -931,7 +942,8 @@ void EstimateWavelength(const Image& luminance, const CylinderGeometry& cylinder
                                      : LatticeCombReach(lattice.threads),
                        sawtooth_read ? 1.0 : kLatticePeriodExplained);
     if (!best && comb->period_only()) {
-      ApplyCombPeriod(*comb->period_only(), options.comb, acquisition, estimate);
+      ApplyCombPeriod(*comb->period_only(), options.comb, lattice.threads, acquisition,
+                      estimate);
       return;
     }
   }
