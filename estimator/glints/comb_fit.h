@@ -135,13 +135,14 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
 // (the threads' pitch `pitch_mm` ± `pitch_stderr_mm`; the period is twice
 // it, or the pitch itself for a lattice that is not lines along the axis:
 // the one nearer the comb's is compared). Where they differ by more than
-// twice their own errors combined (the comb's as CombWavelength states it,
-// less the limbs' scale, which both share), `counted_mm` is the difference,
-// which a period from such a comb must count in its error; 0 where they
-// agree. A comb that explains only part of the rows can be pulled by the
-// lines it does not model, the more so the fewer pixels a period spans (the
-// shared photographs at 0.3 of their size, 6 px per period: the comb read
-// 1.2 % short with an error of 0.2 %, the lines 0.5 % short).
+// twice their own errors combined (the comb's fitted error with its floor,
+// scaled by the misfit; not the limbs' scale, which both share),
+// `counted_mm` is the difference, which a period from such a comb must
+// count in its error; 0 where they agree. A comb that explains only part of
+// the rows can be pulled by the lines it does not model, the more so the
+// fewer pixels a period spans (the shared photographs at 0.3 of their size,
+// 6 px per period: the comb read 1.2 % short with an error of 0.2 %, the
+// lines 0.5 % short).
 struct PeriodReadings {
   double lattice_mm = 0.0;
   double counted_mm = 0.0;
