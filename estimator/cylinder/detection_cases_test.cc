@@ -1021,10 +1021,11 @@ TEST(DetectionCasesTest, AMountAcrossTheShadowIsNotDirectLight) {
 
 // A mount 0.8 radii wide above and below the cylinder: the stretch just
 // inside each limb (offsets 0.75-0.95) holds the mount over its first
-// twentieth, whose mean over both sides stood apart from the background, so
-// 18 of its rows beyond each end were counted as cylinder, and their steps
-// across the shadow read as direct light there (refused). Most of the
-// stretch is background: its median tells.
+// quarter, whose mean over both sides stood apart from the background, so
+// rows of the mount beyond each end were counted as cylinder (34 and 44 of
+// them in this scene at 2000×1500), and their steps across the shadow read
+// as direct light there (refused). Most of the stretch is background: its
+// median tells.
 TEST(DetectionCasesTest, AMountNarrowerThanTheCylinderIsNotCountedAsItsRows) {
   RenderScene scene = CaseScene();
   scene.width_px = 800;
