@@ -1658,8 +1658,16 @@ bool StripHoldsAStep(const Image& luminance, const PixelRegion& region, int side
   const double n = static_cast<double>(rows.size());
   for (int s = 0; s < 2; ++s) {
     const std::vector<double>& p = s == 0 ? left : right;
+    // At least one code value of the file at the strip's level: a file
+    // that holds less noise than a code value (8-bit, a JPEG's smoothing)
+    // shows a smooth backdrop's gradient as a staircase of whole codes,
+    // whose column means step by up to a code where a limb steps by many.
+    double level = 0.0;
+    for (double v : p) level += v;
+    level /= n * side;
     const double threshold =
-        kStripStepSigmas * (s == 0 ? noise.left : noise.right) * std::sqrt(2.0 / (3.0 * n));
+        std::max(kStripStepSigmas * (s == 0 ? noise.left : noise.right) * std::sqrt(2.0 / (3.0 * n)),
+                 CodeStep(luminance, level));
     for (int x = 3; x + 3 < side; ++x) {
       const double d = (p[x + 1] + p[x + 2] + p[x + 3] - p[x - 1] - p[x - 2] - p[x - 3]) / (3.0 * n);
       if (std::fabs(d) > threshold) return true;

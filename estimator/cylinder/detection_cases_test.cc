@@ -15,6 +15,9 @@
 #include "absl/status/statusor.h"
 #include "estimator/cylinder/azimuth_mapping.h"
 #include "estimator/cylinder/cylinder_detection.h"
+#include "estimator/io/decode.h"
+#include "estimator/io/encode.h"
+#include "estimator/io/image.h"
 #include "estimator/render/render.h"
 
 namespace weavefit {
@@ -1205,4 +1208,42 @@ TEST(AzimuthAfterDetectionTest, PerspectiveAt900Mm) {
 }
 
 }  // namespace
+// A JPEG holds less noise than one of its 8-bit codes over a plain
+// backdrop: its smoothing takes the sensor's noise out, and a backdrop's
+// gradient and vignetting become a staircase of whole codes, whose column
+// means in a side strip step by up to a code. Against the strip's noise
+// alone that step was a limb in the strip, and the photograph was refused
+// (three of the shared photographs saved as JPEGs). A limb steps by many
+// codes; the strips' step test counts one code as the file's own.
+TEST(DetectionCasesTest, AJpegsStaircaseOfCodesOverTheBackdropIsNoLimb) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.center_x_px = 321.3;
+  scene.radius_px = 200.0;
+  scene.phase_angle_deg = -57.0;
+  // A dim backdrop (8.6 codes of the sRGB curve per 0.01 there), a gradient
+  // of 0.01 across the frame and a vignetting of 0.25, with no noise left.
+  scene.background = 0.03;
+  scene.background_gradient = 0.01;
+  scene.background_gradient_deg = 20.0;
+  scene.vignetting = 0.25;
+  scene.photons_full_scale = 0.0;
+  scene.read_noise = 0.0;
+  scene.quantisation_bits = 0;
+  const Rendered rendered = Render(scene);
+  absl::StatusOr<std::string> jpeg = EncodeImage(rendered.image, EncodeFormat::kJpeg);
+  ASSERT_TRUE(jpeg.ok()) << jpeg.status();
+  absl::StatusOr<Image> decoded = DecodeImage(*jpeg, DecodeOptions());
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  CylinderDetectionOptions options;
+  options.phase_angle_rad = scene.phase_angle_deg * kDeg;
+  absl::StatusOr<CylinderGeometry> g = DetectCylinder(Luminance(*decoded), options);
+  ASSERT_TRUE(g.ok()) << g.status();
+  const Limbs truth = TrueLimbs(rendered.truth);
+  const Limbs found = DetectedLimbs(scene, *g);
+  EXPECT_NEAR(found.left, truth.left, 1.0);
+  EXPECT_NEAR(found.right, truth.right, 1.0);
+}
+
 }  // namespace weavefit

@@ -309,10 +309,11 @@ struct RowScale {
       : full_scale(full_scale) {
     saturation = options.saturation_level > 0 ? options.saturation_level
                                               : (bit_depth == 32 ? 0.0 : full_scale);
-    const bool srgb = bit_depth == 8 && !options.pixels_linear;
+    srgb = bit_depth == 8 && !options.pixels_linear;
     for (int v = 0; v < 256; ++v) table[v] = srgb ? SrgbToLinear(v / 255.0f) : v / 255.0f;
   }
   double full_scale;
+  bool srgb = false;
   double saturation = 0.0;
   float table[256];
 };
@@ -462,6 +463,7 @@ absl::StatusOr<Image> DecodeWithOpenCv(const std::string& bytes,
   Image image = EmptyImage(decoded.cols, decoded.rows, in_channels >= 3 ? 3 : 1, header.format,
                            bit_depth);
   const RowScale scale(bit_depth, full_scale, options);
+  image.srgb = scale.srgb;
   // Straight from the decoded samples, row by row (no float copy of the
   // whole image: on 12 Mpx that is 50 MB and a pass over the pixels).
   for (int y = 0; y < image.height; ++y) {
@@ -489,6 +491,7 @@ absl::StatusOr<Image> DecodePngByRows(const std::string& bytes, const DecodeOpti
   Image image = EmptyImage(layout.width, layout.height, in_channels >= 3 ? 3 : 1, "png",
                            layout.bit_depth);
   const RowScale scale(layout.bit_depth, layout.bit_depth == 8 ? 255.0 : 65535.0, options);
+  image.srgb = scale.srgb;
   absl::Status s = ReadPngRows(
       reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), layout,
       [&](int y, const unsigned char* samples) {

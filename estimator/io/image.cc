@@ -49,6 +49,7 @@ Image Luminance(const Image& image) {
   out.channels = 1;
   out.format = image.format;
   out.bit_depth = image.bit_depth;
+  out.srgb = image.srgb;
   out.saturated = image.saturated;
   const std::size_t n = static_cast<std::size_t>(image.width) * image.height;
   out.pixels.resize(n);
@@ -59,6 +60,16 @@ Image Luminance(const Image& image) {
                            : p[0];
   }
   return out;
+}
+
+double CodeStep(const Image& image, double level) {
+  if (image.format.empty() || image.format == "exr") return 0.0;
+  if (image.bit_depth != 8 && image.bit_depth != 16) return 0.0;
+  const double code = 1.0 / ((1 << image.bit_depth) - 1);
+  if (!image.srgb) return code;
+  const double encoded = LinearToSrgb(static_cast<float>(std::clamp(level, 0.0, 1.0)));
+  const double next = std::min(1.0, encoded + code);
+  return SrgbToLinear(static_cast<float>(next)) - SrgbToLinear(static_cast<float>(next - code));
 }
 
 float SrgbToLinear(float encoded) {

@@ -51,6 +51,7 @@ struct Image {
   SaturationMask saturated;
   std::string format;  // "png", "tiff", "jpeg", "exr", or "" when synthetic
   int bit_depth = 32;  // of the source file's samples
+  bool srgb = false;   // the samples were decoded through the sRGB curve
 
   float At(int x, int y, int c = 0) const {
     return pixels[(static_cast<std::size_t>(y) * width + x) * channels + c];
@@ -63,6 +64,13 @@ struct Image {
 // A single-channel image: Rec. 709 luminance of linear RGB, or a copy of a
 // one-channel image. The saturation mask is carried over.
 Image Luminance(const Image& image);
+
+// One code value of `image`'s source file, in its linear units, at the
+// linear level `level`: 1/(2^bits − 1) for 8- and 16-bit integer files
+// decoded as linear, the step of the sRGB curve there for those decoded
+// through it. 0 for float files (EXR) and synthetic images: their steps
+// are far below any noise.
+double CodeStep(const Image& image, double level);
 
 // The standard sRGB decoding curve, value in [0, 1].
 float SrgbToLinear(float encoded);

@@ -57,6 +57,7 @@ Image Channel(const Image& image, int c) {
   out.channels = 1;
   out.format = image.format;
   out.bit_depth = image.bit_depth;
+  out.srgb = image.srgb;
   out.saturated = image.saturated;
   out.pixels.resize(static_cast<std::size_t>(image.width) * image.height);
   for (std::size_t i = 0; i < out.pixels.size(); ++i) {
