@@ -493,6 +493,35 @@ TEST(PeakPickingTest, ASawtoothOnAVignettedDiffuseDomeStaysASawtooth) {
   EXPECT_NEAR(p->spacing_rad / kDeg, 2.0 * std::atan(0.507) / kDeg, 0.5);
 }
 
+// Stray light from the camera's side on the whole body is a dome about the
+// line of sight, ∝ 1 + cos φ: under a steep sawtooth at −48.7° its centre
+// lies just beyond the inner caustic's outside point. A chord refused for
+// that (straight, or Lambertian at α) lies low under the dome between the
+// peaks, which filled the sawtooth's empty valley as a sinusoid's glints
+// would (lab scenes: the valley 0.59 of the way to a sinusoid's).
+TEST(PeakPickingTest, ASawtoothUnderStrayLightsDomeStaysASawtooth) {
+  RadianceParams<double> params;
+  params.model = ProfileModel::kSawtooth;
+  params.max_slope = 0.388;
+  params.mirror_rad = -24.33 * kDeg;
+  params.blur_rad = 0.5 * kDeg;
+  params.scale = 0.002;
+  params.phase_angle_rad = -48.65 * kDeg;
+  double top = 0.0;
+  for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
+    top = std::max(top, Radiance(params, phi));
+  }
+  // The dome rises to the caustics' height at the line of sight.
+  auto stray = [&](double phi) { return 0.5 * top * (1.0 + std::cos(phi)); };
+  absl::StatusOr<PeakPickingResult> p =
+      PickPeaks(AnalyticProfile(params, 0.25, stray), params.phase_angle_rad, Projection(),
+                PeakPickingOptions());
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->split_resolved);
+  EXPECT_EQ(p->model, ProfileModel::kSawtooth) << p->valley_ratio << " " << p->caustic_asymmetry;
+  EXPECT_NEAR(p->spacing_rad / kDeg, 2.0 * std::atan(0.388) / kDeg, 0.5);
+}
+
 // The weave's relief under a diffuse light ripples the whole lit body's
 // profile with the thread period; on a large photograph those ripples
 // stand far out of the pixel noise. On a diffuse dome three times a glint's
