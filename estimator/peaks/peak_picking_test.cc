@@ -241,6 +241,15 @@ Profile AnalyticProfile(const RadianceParams<double>& params, double bin_deg,
   return p;
 }
 
+// The analytic radiance's highest value over ±80°, sampled every 0.05°.
+double HighestRadiance(const RadianceParams<double>& params) {
+  double top = 0.0;
+  for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
+    top = std::max(top, Radiance(params, phi));
+  }
+  return top;
+}
+
 TEST(PeakPickingTest, AnalyticSinusoidProfile) {
   // L(φ) of optics/radiance for m = 0.24 at α = 10°, blur σ = 0.2°: the
   // caustic maxima sit 0.77σ inside ±arctan m, and the light smoothing pulls
@@ -362,10 +371,7 @@ TEST(PeakPickingTest, AxialGlintLinesBetweenTheCausticsDoNotMakeASinusoid) {
     params.blur_rad = 0.3 * kDeg;
     params.scale = 0.01;
     params.phase_angle_rad = 40.0 * kDeg;
-    double top = 0.0;
-    for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
-      top = std::max(top, Radiance(params, phi));
-    }
+    const double top = HighestRadiance(params);
     // Lines 3.5° apart, σ 0.3°, a quarter of the lobe's highest, over the
     // lit arc (φ > α − 90°).
     auto lines = [&](double phi) {
@@ -472,10 +478,7 @@ TEST(PeakPickingTest, ASawtoothOnAVignettedDiffuseDomeStaysASawtooth) {
   params.blur_rad = 0.3 * kDeg;
   params.scale = 0.002;
   params.phase_angle_rad = -40.67 * kDeg;
-  double top = 0.0;
-  for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
-    top = std::max(top, Radiance(params, phi));
-  }
+  const double top = HighestRadiance(params);
   // Lambertian, then the renderer's vignetting, 1 − v·r²/r²(corner) with
   // v = 0.26, averaged over the rows: for scene 5109's 414 px radius in a
   // 1024×768 frame, 0.97 − 0.11·(sin φ − 0.075)².
@@ -507,10 +510,7 @@ TEST(PeakPickingTest, ASawtoothUnderStrayLightsDomeStaysASawtooth) {
   params.blur_rad = 0.5 * kDeg;
   params.scale = 0.002;
   params.phase_angle_rad = -48.65 * kDeg;
-  double top = 0.0;
-  for (double phi = -80.0 * kDeg; phi < 80.0 * kDeg; phi += 0.05 * kDeg) {
-    top = std::max(top, Radiance(params, phi));
-  }
+  const double top = HighestRadiance(params);
   // The dome rises to the caustics' height at the line of sight.
   auto stray = [&](double phi) { return 0.5 * top * (1.0 + std::cos(phi)); };
   absl::StatusOr<PeakPickingResult> p =
