@@ -565,6 +565,9 @@ absl::Status CombFitOptions::Validate() const {
     return absl::InvalidArgumentError(
         "need 0 < min_explained <= min_explained_alone < 1");
   }
+  if (!(min_explained_to_polish >= 0.0 && min_explained_to_polish < min_explained)) {
+    return absl::InvalidArgumentError("need 0 <= min_explained_to_polish < min_explained");
+  }
   if (!(slope_floor >= 0.0) || !(wavelength_floor >= 0.0) || !(mirror_floor_rad >= 0.0) ||
       !(slope_mismatch >= 0.0) || !(wavelength_mismatch >= 0.0) ||
       !(mirror_tolerance_rad >= 0.0)) {
@@ -965,8 +968,10 @@ int Polish(const ceres::Solver::Options& solver, int polish_iterations, int main
 }
 
 // The rough solve, then to convergence on half the pieces (kMainPieces at
-// most), and a polish on all of them. Returns the main solve's summary
-// (the polish's where it failed or slid); `iterations` gets all three's.
+// most), and a polish on all of them unless the main solve explains too
+// little (CombFitOptions::min_explained_to_polish). Returns the main solve's
+// summary (the polish's where it failed or slid, marked unconverged where
+// the polish was skipped); `iterations` gets all three's.
 ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptions& options,
                                  ceres::Problem* problem, int* stride, CombParams* params,
                                  int* iterations) {
@@ -985,6 +990,18 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
   ceres::Solver::Summary summary;
   ceres::Solve(solver, problem, &summary);
   *iterations += static_cast<int>(summary.iterations.size());
+  if (summary.IsSolutionUsable() && data.pieces <= 2 * kMainPieces) {
+    double rss = 0.0;
+    const double share = ExplainedShare(data, params->AsShared(), params->own, &rss);
+    if (share < options.min_explained_to_polish) {
+      summary.termination_type = ceres::NO_CONVERGENCE;
+      summary.message = absl::StrFormat(
+          "it explains %.0f%% of the rows' variance at %.3f mm before its polish, too little "
+          "for the polish to make it a fit",
+          100.0 * share, params->shared[1]);
+      return summary;
+    }
+  }
   if (main_stride != 1) {
     *iterations += Polish(solver, options.polish_iterations, main_stride, summary.final_cost,
                           problem, stride, params, &summary);

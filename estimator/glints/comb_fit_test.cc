@@ -470,6 +470,23 @@ TEST(CombFitTest, WrongPeriodIsNotConfirmed) {
   }
 }
 
+// A wrong period that the main solve leaves explaining little of the rows
+// is not polished (CombFitOptions::min_explained_to_polish): the fit ends
+// unconverged, saying so, in fewer iterations than with the polish.
+TEST(CombFitTest, AWrongPeriodIsNotPolished) {
+  CombFitOptions polished;
+  polished.min_explained_to_polish = 0.0;
+  const CombRun screened_run = RunComb(GauzeRender(), 10.0, kWavelengthMm * 1.25);
+  const CombRun polished_run = RunComb(GauzeRender(), 10.0, kWavelengthMm * 1.25, polished);
+  ASSERT_TRUE(screened_run.fit.ok()) << screened_run.fit.status();
+  ASSERT_TRUE(polished_run.fit.ok()) << polished_run.fit.status();
+  const CombFitResult& screened = *screened_run.fit;
+  EXPECT_FALSE(screened.converged) << Describe(screened);
+  EXPECT_NE(screened.message.find("before its polish"), std::string::npos) << screened.message;
+  EXPECT_LT(polished_run.fit->explained, polished.min_explained) << Describe(*polished_run.fit);
+  EXPECT_LT(screened.iterations, polished_run.fit->iterations);
+}
+
 // The fit leaves the mirror free: with the phase angle stated 2° too large
 // the mirror's offset from half of it is −1° (measured −1.0000° ± 0.0008°),
 // the max slope as before.
@@ -491,6 +508,9 @@ TEST(CombFitTest, InvalidArgumentsAreErrors) {
   EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
   options = CombFitOptions();
   options.min_explained = 0.95;  // above min_explained_alone
+  EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
+  options = CombFitOptions();
+  options.min_explained_to_polish = options.min_explained;
   EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
   options = CombFitOptions();
   options.subintervals = 0;
