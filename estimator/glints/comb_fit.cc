@@ -42,15 +42,29 @@ constexpr int kMainPieces = 4;
 constexpr double kMaxTiltTurnPerPiece = 0.03;
 
 // One bin of a row: its footprint along the arc is cut into `pieces`
-// sub-intervals whose end nodes are stored in the row.
+// sub-intervals (its own count: PiecesPerBin) whose end nodes are stored in
+// the row.
 struct Bin {
   double value = 0.0;
   bool valid = true;       // false where a pixel clipped: no residual
   double from_mid = 0.0;   // φ − the window's middle, for the baseline
   double weight = 0.0;     // sec φ / footprint: the geometry over the bin mean
   double piece = 0.0;      // width of one sub-interval (rad)
+  int pieces = 1;
   int first_node = 0;
 };
+
+// How finely the bins are integrated: two sub-intervals each (the rough
+// solve and the start), kMainPieces at most (the main solve), or all of a
+// bin's pieces (the polish, and every share and scale reported).
+enum class Quadrature { kRough, kMain, kFull };
+
+// The step between the nodes a quadrature takes of a bin's pieces. Odd
+// counts (subintervals odd, never doubled) are always taken whole.
+int StrideFor(int pieces, Quadrature quadrature) {
+  if (quadrature == Quadrature::kFull || pieces % 2 != 0) return 1;
+  return quadrature == Quadrature::kRough ? pieces / 2 : std::max(2, pieces / kMainPieces);
+}
 
 struct Row {
   double phase_mm = 0.0;         // start of c
@@ -115,9 +129,9 @@ int Beyond(double g, double sigma) { return g > 8.0 * sigma ? 1 : (g < -8.0 * si
 // Fills `out` for one bin; false where every node lies more than 8σ beyond
 // the mirror on one side (the bin is dark: most bins, the glints being far
 // narrower than a pixel).
-bool ReadBinNodes(const Row& row, const Bin& bin, int pieces, int stride, const CombAt& at,
-                  double c, BinNodes* out) {
-  const int nodes = pieces / stride + 1;
+bool ReadBinNodes(const Row& row, const Bin& bin, int stride, const CombAt& at, double c,
+                  BinNodes* out) {
+  const int nodes = bin.pieces / stride + 1;
   out->count = nodes;
   // |arctan(m·cos θ)| ≤ arctan|m|: a bin whose mirror offset lies beyond
   // that and 8σ more at both ends (lhs is monotonic across a bin) is dark
@@ -248,14 +262,14 @@ void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span,
 // at.gradient) its gradient by m, λ, ln σ, c and δ. Along each sub-interval
 // the miss is taken as linear, so the Gaussian integrates to a difference of
 // error functions. A dark bin (ReadBinNodes) adds nothing. Every
-// `stride`-th node only (stride divides pieces) gives a coarser, cheaper
-// sum. With `parts` non-null (PartsPerBin of them, zeroed), also the mean in
-// parts, in column order.
-double BinMean(const Row& row, const Bin& bin, int pieces, int stride, const CombAt& at, double c,
+// `stride`-th node only (stride divides the bin's pieces) gives a coarser,
+// cheaper sum. With `parts` non-null (PartsPerBin of them, zeroed), also
+// the mean in parts, in column order.
+double BinMean(const Row& row, const Bin& bin, int stride, const CombAt& at, double c,
                double grad[5], BinPart* parts = nullptr) {
   grad[0] = grad[1] = grad[2] = grad[3] = grad[4] = 0.0;
   BinNodes nd;
-  if (!ReadBinNodes(row, bin, pieces, stride, at, c, &nd)) return 0.0;
+  if (!ReadBinNodes(row, bin, stride, at, c, &nd)) return 0.0;
   const int nodes = nd.count;
   const double width = bin.piece * stride;
   // Each sub-interval's share, for the parts (the pairs' shares combined
@@ -273,7 +287,7 @@ double BinMean(const Row& row, const Bin& bin, int pieces, int stride, const Com
   // 0.079 % long with 8 sub-intervals, 0.011 % with 64. Only at full
   // resolution (the polish): the main solve on every other node stays as
   // it was, so that a polish that slides off it still shows (FitGlintComb).
-  if (ExtrapolatesPairs(pieces, stride)) {
+  if (ExtrapolatesPairs(bin.pieces, stride)) {
     double coarse = 0.0;
     double coarse_grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
     for (int n = 2; n < nodes; n += 2) {
@@ -371,20 +385,31 @@ Kernel InPixelPsfKernel(double sigma_bins, int parts) {
   return k;
 }
 
-// The kernel for one PSF width, kept per thread: every row of one
-// evaluation, and of the polish's tail, blurs by the same PSF.
+// The kernel for one PSF width and parts count, kept per thread: every row
+// of one evaluation, and of the polish's tail, blurs by the same PSF, with
+// one kernel per parts count its bins use (at most four: PiecesPerBin
+// doubles up to kMaxPieces). A reference stays valid until
+// kKeptKernels further kernels have been made.
+constexpr int kKeptKernels = 8;
 const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
-  thread_local Kernel kernel;
-  thread_local bool kept_in_pixel = false;
-  thread_local double kept_sigma = std::numeric_limits<double>::quiet_NaN();
-  thread_local int kept_parts = 0;
-  if (!(sigma_bins == kept_sigma) || in_pixel != kept_in_pixel || parts != kept_parts) {
-    kernel = in_pixel ? InPixelPsfKernel(sigma_bins, parts) : SampledPsfKernel(sigma_bins);
-    kept_sigma = sigma_bins;
-    kept_in_pixel = in_pixel;
-    kept_parts = parts;
+  struct Kept {
+    Kernel kernel;
+    bool in_pixel = false;
+    double sigma = std::numeric_limits<double>::quiet_NaN();
+    int parts = 0;
+  };
+  thread_local std::array<Kept, kKeptKernels> kept;
+  thread_local int next = 0;
+  for (const Kept& k : kept) {
+    if (k.sigma == sigma_bins && k.in_pixel == in_pixel && k.parts == parts) return k.kernel;
   }
-  return kernel;
+  Kept& slot = kept[next];
+  next = (next + 1) % kKeptKernels;
+  slot.kernel = in_pixel ? InPixelPsfKernel(sigma_bins, parts) : SampledPsfKernel(sigma_bins);
+  slot.sigma = sigma_bins;
+  slot.in_pixel = in_pixel;
+  slot.parts = parts;
+  return slot.kernel;
 }
 
 // Everything the model needs but the row's level and baseline.
@@ -396,7 +421,7 @@ struct Shared {
 // The row's modelled glint shape per bin (before level and baseline): bin
 // means blurred by the PSF; with `grad` non-null, also the derivatives by
 // m, λ, ln σ, c, δ and q (six per bin).
-std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px, bool in_pixel,
+std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, bool in_pixel,
                              const Shared& p, double c,
                              std::vector<std::array<double, 6>>* grad) {
   const int n = static_cast<int>(row.bins.size());
@@ -410,7 +435,8 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
     std::vector<double> raw(n);
     std::vector<std::array<double, 5>> raw_grad(n);
     for (int j = 0; j < n; ++j) {
-      raw[j] = BinMean(row, row.bins[j], pieces, stride, comb, c, raw_grad[j].data());
+      raw[j] = BinMean(row, row.bins[j], StrideFor(row.bins[j].pieces, quadrature), comb, c,
+                       raw_grad[j].data());
     }
     const Kernel& kernel = PsfKernel(false, psf_px / bin_px, 1);
     for (int j = 0; j < n; ++j) {
@@ -426,21 +452,28 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
     }
     return out;
   }
-  const int per_bin = PartsPerBin(pieces, stride);
-  std::vector<BinPart> parts(static_cast<std::size_t>(n) * per_bin);
+  // Each bin's parts from first_part[j] on (their count is the bin's own).
+  std::vector<int> first_part(n + 1, 0);
+  for (int j = 0; j < n; ++j) {
+    const Bin& b = row.bins[j];
+    first_part[j + 1] = first_part[j] + PartsPerBin(b.pieces, StrideFor(b.pieces, quadrature));
+  }
+  std::vector<BinPart> parts(first_part[n]);
   std::vector<char> lit(n, 0);
   double unused[5];
   for (int j = 0; j < n; ++j) {
-    BinPart* part = &parts[static_cast<std::size_t>(j) * per_bin];
-    lit[j] = BinMean(row, row.bins[j], pieces, stride, comb, c, unused, part) != 0.0;
+    const Bin& b = row.bins[j];
+    lit[j] = BinMean(row, b, StrideFor(b.pieces, quadrature), comb, c, unused,
+                     &parts[first_part[j]]) != 0.0;
   }
-  const Kernel& kernel = PsfKernel(true, psf_px / bin_px, per_bin);
   // Each lit bin's parts spread to the bins around it (light beyond the
   // row's ends is lost: the rows reach well past the lobe).
   for (int i = 0; i < n; ++i) {
     if (!lit[i]) continue;
+    const int per_bin = first_part[i + 1] - first_part[i];
+    const Kernel& kernel = PsfKernel(true, psf_px / bin_px, per_bin);
     for (int q = 0; q < per_bin; ++q) {
-      const BinPart& part = parts[static_cast<std::size_t>(i) * per_bin + q];
+      const BinPart& part = parts[first_part[i] + q];
       for (int t = -kernel.reach; t <= kernel.reach; ++t) {
         const int j = i - t;
         if (j < 0 || j >= n) continue;
@@ -461,10 +494,10 @@ std::vector<double> RowShape(const Row& row, int pieces, int stride, int bin_px,
 // (m, λ, δ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
 class RowCost : public ceres::CostFunction {
  public:
-  RowCost(const Row* row, int pieces, int bin_px, bool in_pixel, double inv_scale,
-          const int* stride)
-      : row_(row), pieces_(pieces), bin_px_(bin_px), in_pixel_(in_pixel), inv_scale_(inv_scale),
-        stride_(stride) {
+  RowCost(const Row* row, int bin_px, bool in_pixel, double inv_scale,
+          const Quadrature* quadrature)
+      : row_(row), bin_px_(bin_px), in_pixel_(in_pixel), inv_scale_(inv_scale),
+        quadrature_(quadrature) {
     set_num_residuals(static_cast<int>(row->bins.size()));
     mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
   }
@@ -481,7 +514,7 @@ class RowCost : public ceres::CostFunction {
     if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma)) return false;
     std::vector<std::array<double, 6>> grad;
     const std::vector<double> shape =
-        RowShape(*row_, pieces_, *stride_, bin_px_, in_pixel_, p, own[0],
+        RowShape(*row_, *quadrature_, bin_px_, in_pixel_, p, own[0],
                  jacobians != nullptr ? &grad : nullptr);
     const int n = static_cast<int>(shape.size());
     for (int j = 0; j < n; ++j) {
@@ -513,11 +546,10 @@ class RowCost : public ceres::CostFunction {
 
  private:
   const Row* row_;
-  int pieces_;
   int bin_px_;
   bool in_pixel_;
   double inv_scale_;
-  const int* stride_;  // the fit's current stride (coarse while starting)
+  const Quadrature* quadrature_;  // the fit's current one (coarse while starting)
 };
 
 // Level and baseline of a row for a given shape, by linear least squares
@@ -635,36 +667,32 @@ absl::StatusOr<CombRows> ChooseCombRows(const ArcSignals& signals, const GlintMo
 
 namespace {
 
-// The comb's rows in the fit's terms: every bin's footprint cut into
-// `pieces` sub-intervals, arc lengths counted from the window's middle.
+// The comb's rows in the fit's terms: every bin's footprint cut into its
+// own number of sub-intervals, arc lengths counted from the window's middle.
 struct CombProblemData {
   std::vector<Row> rows;
   std::vector<int> thread_of_row;
   std::vector<int> distinct;  // the threads, sorted
-  int pieces = 1;
+  int pieces = 1;             // the most any bin has
   int bin_px = 1;
   bool in_pixel = false;
   int num_residuals = 0;  // valid bins
 };
 
-// Sub-intervals per bin: options.subintervals, doubled (up to kMaxPieces)
-// until the tilt's turn across one is within kMaxTiltTurnPerPiece on the
-// widest bin in azimuth. The main solve keeps kMainPieces per bin: on 12
-// the steep weave above slid to m = 0.84 for 0.60.
-template <typename Azimuth>
-int PiecesPerBin(const ArcPixels& pixels, const GlintModel& model, double wavelength_mm,
-                 int subintervals, Azimuth&& azimuth) {
-  int pieces = subintervals;
-  double widest_rad = 0.0;
-  for (const std::vector<double>& offsets : pixels.offset_px) {
-    for (double o : offsets) {
-      widest_rad = std::max(widest_rad, azimuth(o + 0.5 * pixels.bin_width_px) -
-                                            azimuth(o - 0.5 * pixels.bin_width_px));
-    }
-  }
+// Sub-intervals of one bin spanning `width_rad` in azimuth:
+// options.subintervals, doubled (up to kMaxPieces) until the tilt's turn
+// across one is within kMaxTiltTurnPerPiece. Each bin has its own: a bin
+// spans 1/cos φ in azimuth, so toward the limb a bin needs up to four times
+// the pieces of one near the mirror, and giving every bin the widest one's
+// count made the polish on steep weaves 2-3 times as dear. The main solve
+// keeps kMainPieces per bin: on 12 the steep weave above slid to m = 0.84
+// for 0.60.
+int PiecesPerBin(double width_rad, const GlintModel& model, double wavelength_mm,
+                 int subintervals) {
   const double turn =
-      model.max_slope * 2.0 * M_PI * model.projection.radius_mm * widest_rad / wavelength_mm;
+      model.max_slope * 2.0 * M_PI * model.projection.radius_mm * width_rad / wavelength_mm;
   const int needed = static_cast<int>(std::ceil(turn / kMaxTiltTurnPerPiece));
+  int pieces = subintervals;
   while (pieces < needed && 2 * pieces <= kMaxPieces) pieces *= 2;
   return pieces;
 }
@@ -683,9 +711,6 @@ absl::StatusOr<CombProblemData> BuildCombProblem(const ArcPixels& pixels, const 
     return AzimuthFromOffset(std::clamp(offset_px / radius_px, -0.999999, 0.999999),
                              model.projection);
   };
-  const int pieces =
-      PiecesPerBin(pixels, model, wavelength_mm, options.subintervals, azimuth);
-  data.pieces = pieces;
   // The middle of the window, which arc lengths are counted from (so that
   // the period and the phases are not correlated through a large offset:
   // the phase becomes c + R·φ_mid).
@@ -716,9 +741,11 @@ absl::StatusOr<CombProblemData> BuildCombProblem(const ArcPixels& pixels, const 
       valid += b.valid;
       b.from_mid = phi - phi_mid;
       b.weight = 1.0 / (std::max(std::cos(phi), 0.05) * (hi - lo));
-      b.piece = (hi - lo) / pieces;
+      b.pieces = PiecesPerBin(hi - lo, model, wavelength_mm, options.subintervals);
+      data.pieces = std::max(data.pieces, b.pieces);
+      b.piece = (hi - lo) / b.pieces;
       b.first_node = static_cast<int>(row.node_s.size());
-      for (int q = 0; q <= pieces; ++q) {
+      for (int q = 0; q <= b.pieces; ++q) {
         const double at = lo + q * b.piece;
         row.node_s.push_back(radius_mm * (at - phi_mid));
         row.node_lhs.push_back(
@@ -751,10 +778,9 @@ using OwnParams = std::vector<std::array<double, kOwn>>;
 Shared StartComb(const CombProblemData& data, const GlintModel& model, double wavelength_mm,
                  OwnParams* own_out) {
   const std::vector<Row>& rows = data.rows;
-  const int pieces = data.pieces;
   const int bin_px = data.bin_px;
   const bool in_pixel = data.in_pixel;
-  const int coarse = pieces % 2 == 0 ? pieces / 2 : 1;
+  const Quadrature coarse = Quadrature::kRough;
   Shared p;
   p.m = model.max_slope;
   p.lambda = wavelength_mm;
@@ -764,7 +790,7 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
   auto total_rss = [&](const Shared& trial, OwnParams* out) {
     double rss = 0.0;
     for (std::size_t i = 0; i < rows.size(); ++i) {
-      rss += SolveLinear(rows[i], RowShape(rows[i], pieces, coarse, bin_px, in_pixel, trial, (*out)[i][0], nullptr),
+      rss += SolveLinear(rows[i], RowShape(rows[i], coarse, bin_px, in_pixel, trial, (*out)[i][0], nullptr),
                          (*out)[i].data());
     }
     return rss;
@@ -778,7 +804,7 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
         std::array<double, kOwn> trial = own[i];
         trial[0] = own[i][0] + d * step;
         const double rss = SolveLinear(
-            rows[i], RowShape(rows[i], pieces, coarse, bin_px, in_pixel, p, trial[0], nullptr), trial.data());
+            rows[i], RowShape(rows[i], coarse, bin_px, in_pixel, p, trial[0], nullptr), trial.data());
         if (best < 0.0 || rss < best) {
           best = rss;
           keep = trial;
@@ -829,7 +855,7 @@ double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams&
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     const Row& row = data.rows[i];
     const std::vector<double> shape =
-        RowShape(row, data.pieces, 1, data.bin_px, data.in_pixel, p, own[i][0], nullptr);
+        RowShape(row, Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0], nullptr);
     for (std::size_t j = 0; j < row.bins.size(); ++j) {
       const Bin& b = row.bins[j];
       if (!b.valid) continue;
@@ -848,7 +874,7 @@ double ExplainedShare(const CombProblemData& data, const Shared& p, const OwnPar
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     const Row& row = data.rows[i];
     const std::vector<double> shape =
-        RowShape(row, data.pieces, 1, data.bin_px, data.in_pixel, p, own[i][0], nullptr);
+        RowShape(row, Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0], nullptr);
     std::array<double, kOwn> flat = own[i];
     base += SolveLinear(row, std::vector<double>(shape.size(), 0.0), flat.data());
     for (std::size_t j = 0; j < row.bins.size(); ++j) {
@@ -881,12 +907,12 @@ struct CombParams {
 };
 
 // One residual block per row, over (m, λ, δ), ln σ, q and its own; each
-// reads the fit's current stride through `stride`.
-void AddRowCosts(const CombProblemData& data, double scale, const int* stride,
+// reads the fit's current quadrature through `quadrature`.
+void AddRowCosts(const CombProblemData& data, double scale, const Quadrature* quadrature,
                  CombParams* params, ceres::Problem* problem) {
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     problem->AddResidualBlock(
-        new RowCost(&data.rows[i], data.pieces, data.bin_px, data.in_pixel, 1.0 / scale, stride),
+        new RowCost(&data.rows[i], data.bin_px, data.in_pixel, 1.0 / scale, quadrature),
         nullptr, params->shared, &params->log_sigma, &params->psf_q, params->own[i].data());
   }
 }
@@ -896,8 +922,8 @@ void AddRowCosts(const CombProblemData& data, double scale, const int* stride,
 // 2 % off in the period otherwise ends in a false minimum), so the first
 // solve holds the source blur at three times its start (and the PSF at its
 // start) on two pieces per bin, for a rough optimum. Returns its iterations.
-int SolveRough(const CombProblemData& data, const ceres::Solver::Options& solver,
-               ceres::Problem* problem, int* stride, CombParams* params) {
+int SolveRough(const ceres::Solver::Options& solver, ceres::Problem* problem,
+               Quadrature* quadrature, CombParams* params) {
   const double keep = params->log_sigma;
   params->log_sigma = std::max(keep + std::log(3.0), std::log(0.5 * M_PI / 180.0));
   problem->SetParameterBlockConstant(&params->log_sigma);
@@ -905,7 +931,7 @@ int SolveRough(const CombProblemData& data, const ceres::Solver::Options& solver
   ceres::Solver::Options rough = solver;
   rough.max_num_iterations = 15;
   rough.function_tolerance = 1e-3;
-  *stride = data.pieces % 2 == 0 ? data.pieces / 2 : 1;
+  *quadrature = Quadrature::kRough;
   ceres::Solver::Summary summary;
   ceres::Solve(rough, problem, &summary);
   params->log_sigma = keep;
@@ -914,8 +940,8 @@ int SolveRough(const CombProblemData& data, const ceres::Solver::Options& solver
   return static_cast<int>(summary.iterations.size());
 }
 
-// The polish on all the pieces, after a main solve on every main_stride-th
-// that ended at main_cost. It runs to a tight tolerance: stopped at the main
+// The polish on all the pieces, after a main solve on fewer (kMain) that
+// ended at main_cost. It runs to a tight tolerance: stopped at the main
 // solve's (a relative cost change of 1e-5, which noise alone makes the
 // cost's scale) the max slope still crawled. Over 8 noise draws of each
 // fixture scene (scripts/noise_draws.py) its spread fell 2-30 fold to the
@@ -923,10 +949,10 @@ int SolveRough(const CombProblemData& data, const ceres::Solver::Options& solver
 // a fixture whose answer hung on its start (silk_m10_srgb) came in (+0.18
 // to +0.06 deg). Returns its iterations; marks `summary` unsettled where
 // the polish slid rather than refined (below).
-int Polish(const ceres::Solver::Options& solver, int polish_iterations, int main_stride,
-           double main_cost, ceres::Problem* problem, int* stride, CombParams* params,
+int Polish(const ceres::Solver::Options& solver, int polish_iterations, double main_cost,
+           ceres::Problem* problem, Quadrature* quadrature, CombParams* params,
            ceres::Solver::Summary* summary) {
-  *stride = 1;
+  *quadrature = Quadrature::kFull;
   ceres::Solver::Options polish = solver;
   polish.max_num_iterations = polish_iterations;
   polish.function_tolerance = 1e-8;
@@ -951,12 +977,12 @@ int Polish(const ceres::Solver::Options& solver, int polish_iterations, int main
   const bool blur_moved = std::fabs(params->log_sigma - log_sigma_before) > std::log(1.5);
   double polished_main_cost = std::numeric_limits<double>::infinity();
   if (blur_moved) {
-    *stride = main_stride;
+    *quadrature = Quadrature::kMain;
     if (!problem->Evaluate(ceres::Problem::EvaluateOptions(), &polished_main_cost, nullptr,
                            nullptr, nullptr)) {
       polished_main_cost = std::numeric_limits<double>::infinity();
     }
-    *stride = 1;
+    *quadrature = Quadrature::kFull;
   }
   if (blur_moved && !(polished_main_cost < main_cost)) {
     summary->termination_type = ceres::NO_CONVERGENCE;
@@ -973,8 +999,8 @@ int Polish(const ceres::Solver::Options& solver, int polish_iterations, int main
 // summary (the polish's where it failed or slid, marked unconverged where
 // the polish was skipped); `iterations` gets all three's.
 ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptions& options,
-                                 ceres::Problem* problem, int* stride, CombParams* params,
-                                 int* iterations) {
+                                 ceres::Problem* problem, Quadrature* quadrature,
+                                 CombParams* params, int* iterations) {
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_SCHUR;
   solver.max_num_iterations = options.max_iterations;
@@ -984,9 +1010,8 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
   // solver's defaults.
   solver.function_tolerance = 1e-5;
   solver.parameter_tolerance = 1e-5;
-  *iterations = SolveRough(data, solver, problem, stride, params);
-  *stride = data.pieces % 2 == 0 ? std::max(2, data.pieces / kMainPieces) : 1;
-  const int main_stride = *stride;
+  *iterations = SolveRough(solver, problem, quadrature, params);
+  *quadrature = Quadrature::kMain;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, problem, &summary);
   *iterations += static_cast<int>(summary.iterations.size());
@@ -1002,9 +1027,11 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
       return summary;
     }
   }
-  if (main_stride != 1) {
-    *iterations += Polish(solver, options.polish_iterations, main_stride, summary.final_cost,
-                          problem, stride, params, &summary);
+  // Odd piece counts are never split (StrideFor): the main solve had them
+  // all.
+  if (data.pieces % 2 == 0) {
+    *iterations += Polish(solver, options.polish_iterations, summary.final_cost, problem,
+                          quadrature, params, &summary);
   }
   return summary;
 }
@@ -1097,12 +1124,12 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   params.shared[2] = p.delta;
   params.log_sigma = p.log_sigma;
   params.psf_q = p.psf_q;
-  int stride = 1;
+  Quadrature quadrature = Quadrature::kFull;
   ceres::Problem problem;
-  AddRowCosts(data, scale, &stride, &params, &problem);
+  AddRowCosts(data, scale, &quadrature, &params, &problem);
   CombFitResult result;
   const ceres::Solver::Summary summary =
-      SolveComb(data, options, &problem, &stride, &params, &result.iterations);
+      SolveComb(data, options, &problem, &quadrature, &params, &result.iterations);
 
   const Shared fit = params.AsShared();
   result.rows_used = static_cast<int>(data.rows.size());
