@@ -683,8 +683,9 @@ struct CombProblemData {
 // options.subintervals, doubled (up to kMaxPieces) until the tilt's turn
 // across one is within kMaxTiltTurnPerPiece. Each bin has its own: a bin
 // spans 1/cos φ in azimuth, so toward the limb a bin needs up to four times
-// the pieces of one near the mirror, and giving every bin the widest one's
-// count made the polish on steep weaves 2-3 times as dear. The main solve
+// the pieces of one near the mirror; giving every bin the widest one's
+// count cost the independently rendered photographs' glint stage a tenth
+// of its time in all (bench ../shared/photographs). The main solve
 // keeps kMainPieces per bin: on 12 the steep weave above slid to m = 0.84
 // for 0.60.
 int PiecesPerBin(double width_rad, const GlintModel& model, double wavelength_mm,
