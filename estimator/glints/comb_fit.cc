@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -389,7 +390,9 @@ Kernel InPixelPsfKernel(double sigma_bins, int parts) {
 // of one evaluation, and of the polish's tail, blurs by the same PSF, with
 // one kernel per parts count its bins use (at most four: PiecesPerBin
 // doubles up to kMaxPieces). A reference stays valid until
-// kKeptKernels further kernels have been made.
+// kKeptKernels further kernels have been made. The kernels live on the
+// heap: a thread's static TLS comes out of its stack, and the daemon's
+// metrics threads (civetweb's) have little to spare.
 constexpr int kKeptKernels = 8;
 const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
   struct Kept {
@@ -398,8 +401,10 @@ const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
     double sigma = std::numeric_limits<double>::quiet_NaN();
     int parts = 0;
   };
-  thread_local std::array<Kept, kKeptKernels> kept;
+  thread_local std::unique_ptr<std::array<Kept, kKeptKernels>> kept_slots;
   thread_local int next = 0;
+  if (kept_slots == nullptr) kept_slots = std::make_unique<std::array<Kept, kKeptKernels>>();
+  std::array<Kept, kKeptKernels>& kept = *kept_slots;
   for (const Kept& k : kept) {
     if (k.sigma == sigma_bins && k.in_pixel == in_pixel && k.parts == parts) return k.kernel;
   }
