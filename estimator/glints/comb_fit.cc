@@ -21,9 +21,9 @@ namespace weavefit {
 namespace {
 
 // Parameters: (m, λ mm, δ rad: the mirror's offset from (α + v)/2), (ln σ
-// of the source, rad), (q: lens PSF σ = sqrt(q² + 0.1²) px, which keeps it
-// positive without a bound) shared by all rows; each row's own (c mm, level
-// A, baseline b0, baseline slope b1 per rad).
+// of the source, rad), (ℓ: lens PSF σ = 0.1 + ln(1 + e^ℓ) px, which keeps
+// it above its floor without a bound: PsfPx) shared by all rows; each row's
+// own (c mm, level A, baseline b0, baseline slope b1 per rad).
 constexpr int kShared = 5;
 constexpr int kOwn = 4;
 constexpr double kPsfFloorPx = 0.1;
@@ -419,20 +419,31 @@ const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
 
 // Everything the model needs but the row's level and baseline.
 struct Shared {
-  double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_q = 0.0;
-  double PsfPx() const { return std::hypot(psf_q, kPsfFloorPx); }
+  double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_l = 0.0;
+  // The softplus: σ grows as ℓ for large ℓ and nears the floor as e^ℓ. A
+  // comb sharper than a pixel has its optimum at the floor. A form with no
+  // slope there (σ = hypot(q, 0.1)) makes the Gauss-Newton step in q grow
+  // as 1/q near it: the solvers spent 5-20 iterations on rejected steps
+  // that flung the PSF out to many pixels, and stopped at their caps
+  // wherever that left them (CombFitTest.ASharpCombIsPolishedToConvergence).
+  // Here a step toward the floor cannot overshoot it.
+  double PsfPx() const { return kPsfFloorPx + SoftPlus(psf_l); }
+  static double SoftPlus(double x) {
+    return x > 0.0 ? x + std::log1p(std::exp(-x)) : std::log1p(std::exp(x));
+  }
 };
 
 // The row's modelled glint shape per bin (before level and baseline): bin
 // means blurred by the PSF; with `grad` non-null, also the derivatives by
-// m, λ, ln σ, c, δ and q (six per bin).
+// m, λ, ln σ, c, δ and ℓ (six per bin).
 std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, bool in_pixel,
                              const Shared& p, double c,
                              std::vector<std::array<double, 6>>* grad) {
   const int n = static_cast<int>(row.bins.size());
   const double sigma = std::exp(p.log_sigma);
   const double psf_px = p.PsfPx();
-  const double dlog_dq = p.psf_q / (psf_px * psf_px);
+  const double dlog_dl =  // ∂ ln σ / ∂ℓ: the logistic of ℓ over σ
+      1.0 / ((1.0 + std::exp(-p.psf_l)) * psf_px);
   const CombAt comb = MakeCombAt(p.m, p.lambda, p.delta, sigma, grad != nullptr);
   std::vector<double> out(n, 0.0);
   if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
@@ -451,7 +462,7 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
         out[j] += w * raw[at];
         if (grad != nullptr) {
           for (int q = 0; q < 5; ++q) (*grad)[j][q] += w * raw_grad[at][q];
-          (*grad)[j][5] += kernel.dw[t + kernel.reach] * dlog_dq * raw[at];
+          (*grad)[j][5] += kernel.dw[t + kernel.reach] * dlog_dl * raw[at];
         }
       }
     }
@@ -487,7 +498,7 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
         out[j] += w * part.value;
         if (grad != nullptr) {
           for (int k = 0; k < 5; ++k) (*grad)[j][k] += w * part.grad[k];
-          (*grad)[j][5] += kernel.dw[at] * dlog_dq * part.value;
+          (*grad)[j][5] += kernel.dw[at] * dlog_dl * part.value;
         }
       }
     }
@@ -514,9 +525,12 @@ class RowCost : public ceres::CostFunction {
     p.lambda = parameters[0][1];
     p.delta = parameters[0][2];
     p.log_sigma = parameters[1][0];
-    p.psf_q = parameters[2][0];
+    p.psf_l = parameters[2][0];
     const double* own = parameters[3];
-    if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma)) return false;
+    if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma) ||
+        !std::isfinite(p.PsfPx())) {
+      return false;
+    }
     std::vector<std::array<double, 6>> grad;
     const std::vector<double> shape =
         RowShape(*row_, *quadrature_, bin_px_, in_pixel_, p, own[0],
@@ -825,7 +839,7 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
     for (double psf_px : {0.3, 1.0}) {
       Shared trial = p;
       trial.log_sigma = std::log(sigma_deg * M_PI / 180.0);
-      trial.psf_q = std::sqrt(psf_px * psf_px - kPsfFloorPx * kPsfFloorPx);
+      trial.psf_l = std::log(std::expm1(psf_px - kPsfFloorPx));
       OwnParams scratch = own;
       const double rss = total_rss(trial, &scratch);
       if (best < 0.0 || rss < best) {
@@ -894,12 +908,12 @@ double ExplainedShare(const CombProblemData& data, const Shared& p, const OwnPar
   return base > 0.0 ? 1.0 - rss / base : 0.0;
 }
 
-// The comb's parameters as Ceres holds them: (m, λ, δ), ln σ, q and each
+// The comb's parameters as Ceres holds them: (m, λ, δ), ln σ, ℓ and each
 // row's own.
 struct CombParams {
   double shared[3] = {0.0, 0.0, 0.0};
   double log_sigma = 0.0;
-  double psf_q = 0.0;
+  double psf_l = 0.0;
   OwnParams own;
   Shared AsShared() const {
     Shared p;
@@ -907,19 +921,20 @@ struct CombParams {
     p.lambda = shared[1];
     p.delta = shared[2];
     p.log_sigma = log_sigma;
-    p.psf_q = psf_q;
+    p.psf_l = psf_l;
     return p;
   }
 };
 
-// One residual block per row, over (m, λ, δ), ln σ, q and its own; each
+// One residual block per row, over (m, λ, δ), ln σ, ℓ and its own; each
 // reads the fit's current quadrature through `quadrature`.
 void AddRowCosts(const CombProblemData& data, double scale, const Quadrature* quadrature,
                  CombParams* params, ceres::Problem* problem) {
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     problem->AddResidualBlock(
         new RowCost(&data.rows[i], data.bin_px, data.in_pixel, 1.0 / scale, quadrature),
-        nullptr, params->shared, &params->log_sigma, &params->psf_q, params->own[i].data());
+        nullptr, params->shared, &params->log_sigma, &params->psf_l,
+        params->own[i].data());
   }
 }
 
@@ -933,7 +948,7 @@ int SolveRough(const ceres::Solver::Options& solver, ceres::Problem* problem,
   const double keep = params->log_sigma;
   params->log_sigma = std::max(keep + std::log(3.0), std::log(0.5 * M_PI / 180.0));
   problem->SetParameterBlockConstant(&params->log_sigma);
-  problem->SetParameterBlockConstant(&params->psf_q);
+  problem->SetParameterBlockConstant(&params->psf_l);
   ceres::Solver::Options rough = solver;
   rough.max_num_iterations = 15;
   rough.function_tolerance = 1e-3;
@@ -942,7 +957,7 @@ int SolveRough(const ceres::Solver::Options& solver, ceres::Problem* problem,
   ceres::Solve(rough, problem, &summary);
   params->log_sigma = keep;
   problem->SetParameterBlockVariable(&params->log_sigma);
-  problem->SetParameterBlockVariable(&params->psf_q);
+  problem->SetParameterBlockVariable(&params->psf_l);
   return static_cast<int>(summary.iterations.size());
 }
 
@@ -1057,7 +1072,7 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
 bool ClusterErrors(const CombProblemData& data, ceres::Problem* problem, CombParams* params,
                    CombFitResult* result) {
   ceres::Problem::EvaluateOptions eval;
-  eval.parameter_blocks = {params->shared, &params->log_sigma, &params->psf_q};
+  eval.parameter_blocks = {params->shared, &params->log_sigma, &params->psf_l};
   for (auto& o : params->own) eval.parameter_blocks.push_back(o.data());
   std::vector<double> residuals;
   ceres::CRSMatrix jacobian;
@@ -1129,7 +1144,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   params.shared[1] = p.lambda;
   params.shared[2] = p.delta;
   params.log_sigma = p.log_sigma;
-  params.psf_q = p.psf_q;
+  params.psf_l = p.psf_l;
   Quadrature quadrature = Quadrature::kFull;
   ceres::Problem problem;
   AddRowCosts(data, scale, &quadrature, &params, &problem);
