@@ -453,6 +453,20 @@ void SampleCellShares(const EdgeWindow& w, double e, CellShares* out) {
   }
 }
 
+// The edge scans' fine stage (RefineEdge, LimbPlacer::JointLimb): the best
+// of the positions every 0.005 px within 0.05 px of the coarse stage's best,
+// `consider` returning each one's sum of squares. Within a tenth of a pixel
+// of the coarse best the sum of squares has one minimum (the pixels'
+// coverage varies smoothly with the edge; the blur's tabulated kernel adds
+// ripples of a few thousandths of a pixel), so a golden section on those 21
+// positions (LatticeMinimum) takes about 10 of them for 21. The sums are a
+// third of detection's time (perf); the cylinders it finds moved by at most
+// 0.006 px on the fixtures and 0.002 px on the shared photographs.
+template <typename Consider>
+void FineStepsAround(Consider&& consider, double coarse) {
+  LatticeMinimum([&](int k) { return consider(coarse + 0.005 * k); }, -10, 10);
+}
+
 EdgeSums SumsAt(const EdgeWindow& w, double e) {
   EdgeSums t;
   thread_local CellShares cells;
@@ -555,7 +569,9 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
   auto consider = [&](double e) {
     const EdgeSums t = SumsAt(w, e);
     const double det = t.cc * t.ii - t.ci * t.ci;
-    if (!(std::fabs(det) > 1e-12 * std::max(1.0, t.cc * t.ii))) return;
+    if (!(std::fabs(det) > 1e-12 * std::max(1.0, t.cc * t.ii))) {
+      return std::numeric_limits<double>::infinity();
+    }
     double scatter = (t.cc * t.iy - t.ci * t.cy) / det;
     // S held: zero at an unlit limb or when it comes out negative (scatter
     // only brightens: a plain step then), or given.
@@ -573,13 +589,13 @@ double RefineEdge(const std::vector<double>& v, double background, double e0, in
       best_e = e;
       best_scatter = scatter;
     }
+    return sse;
   };
   // Edges within a pixel of `center` (e0 unless given): every 0.05 px, then
-  // every 0.005 px around the best.
+  // the best of every 0.005 px around the best (FineStepsAround).
   const double c0 = std::isfinite(center) ? center : e0;
   for (int step = -20; step <= 20; ++step) consider(c0 + 0.05 * step);
-  const double coarse = best_e;
-  for (int step = -10; step <= 10; ++step) consider(coarse + 0.005 * step);
+  FineStepsAround(consider, best_e);
   if (scatter_out != nullptr) *scatter_out = best_scatter;
   return best_e;
 }
@@ -2427,10 +2443,11 @@ LimbFit LimbPlacer::JointLimb(int inward, const std::vector<LimbPoint>& first,
         sum.num += h.num;
         sum.den += h.den;
       }
-      if (!(sum.den > 0.0)) return;
+      if (!(sum.den > 0.0)) return std::numeric_limits<double>::infinity();
       const double s = lit ? std::max(0.0, sum.num / sum.den) : 0.0;
       const double sse = sum.at_zero - 2.0 * s * sum.num + s * s * sum.den;
       if (sse < best.sse) best = {sse, delta, s};
+      return sse;
     };
     if (fine) {
       for (int k = -20; k <= 20; ++k) consider(0.05 * k);
@@ -2440,8 +2457,7 @@ LimbFit LimbPlacer::JointLimb(int inward, const std::vector<LimbPoint>& first,
       for (int k = 21; k <= 50 + 20 * pad_ && reach_out && std::fabs(best.delta) >= 0.95; ++k) {
         consider(std::copysign(0.05 * k, best.delta));
       }
-      const double coarse = best.delta;
-      for (int k = -10; k <= 10; ++k) consider(coarse + 0.005 * k);
+      FineStepsAround(consider, best.delta);
     } else {
       for (int k = -10; k <= 10; ++k) consider(0.1 * k);
       for (int k = 11; k <= 25 + 10 * pad_ && reach_out && std::fabs(best.delta) >= 0.95; ++k) {
