@@ -467,6 +467,27 @@ void FineStepsAround(Consider&& consider, double coarse) {
   LatticeMinimum([&](int k) { return consider(coarse + 0.005 * k); }, -10, 10);
 }
 
+// ThroughBlur fits a limb again through the blur moved by its error, and
+// the joint edge moves by hundredths of a pixel: from the unmoved fit's δ
+// (`warm`), the positions every 0.005 px within kWarmReachPx of it are
+// searched as the fine stage's are (LatticeMinimum: ~15 sums for 81, where
+// the whole scan takes ~51 per band; those scans were a sixth of
+// detection's sums). False when the least lies at the window's end: the
+// edge moved farther, and the whole scan is needed. (A band's own edge,
+// HeldShift's, has more than one minimum in reach, from noise and glints:
+// searched near the unmoved edge, four of the shared photographs' radius
+// errors moved by 10-40 %, so those scans stay whole.)
+constexpr double kWarmReachPx = 0.2;
+
+template <typename Consider>
+bool NearWarmStart(Consider&& consider, double warm) {
+  if (!std::isfinite(warm)) return false;
+  constexpr int kSteps = 40;
+  static_assert(kSteps * 0.005 == kWarmReachPx, "the window's end is kWarmReachPx");
+  const int k = LatticeMinimum([&](int k) { return consider(warm + 0.005 * k); }, -kSteps, kSteps);
+  return std::abs(k) < kSteps;
+}
+
 EdgeSums SumsAt(const EdgeWindow& w, double e) {
   EdgeSums t;
   thread_local CellShares cells;
@@ -2183,6 +2204,7 @@ struct LimbFit {
   double scatter = std::numeric_limits<double>::quiet_NaN();
   Blur blur;
   Line line;  // the first pass's line moved by the fitted δ
+  double delta = 0.0;
   // No glints cut a window: a fit that chose its blur proposed one.
   bool whole = false;
   // S's standard error, cluster-robust over the bands (CR2).
@@ -2305,9 +2327,12 @@ class LimbPlacer {
   //   blur of 0.4, 0.8 and 1.2 px (60°). The model is seen through a
   //   Gaussian of σ chosen by the least residual over 0-1.5 px (a grid, then
   //   golden-section search between the best point's neighbours).
+  // `warm_delta`: δ of the same fit through the blur before it moved by
+  // its error (NearWarmStart).
   LimbFit JointLimb(int inward, const std::vector<LimbPoint>& first,
                     const Blur* fixed_blur = nullptr,
-                    const std::vector<bool>* use_band = nullptr) const;
+                    const std::vector<bool>* use_band = nullptr,
+                    double warm_delta = std::numeric_limits<double>::quiet_NaN()) const;
   // The held S is one number for the whole limb, so its own noise moves every
   // band's edge alike, which the line's scatter over the bands does not show:
   // over 64 noise draws of the coarse gauze at 10° the limbs spread 1.3 times
@@ -2322,7 +2347,7 @@ class LimbPlacer {
   // bands' own placement about that line moves with it: refitting them
   // too changed no stated radius error on the shared photographs by more
   // than 0.009 px.
-  double ThroughBlur(int inward, const std::vector<LimbPoint>& first, double sigma,
+  double ThroughBlur(int inward, const std::vector<LimbPoint>& first, const LimbFit& fit,
                      double blur_stderr_px) const;
   // The shading R of a body in stray light at the limb away from the light,
   // from a wide strip inside the line through `points` (0: none seen).
@@ -2393,7 +2418,8 @@ std::vector<LimbPoint> LimbPlacer::RefineLimb(int inward, double scatter, const 
 }
 
 LimbFit LimbPlacer::JointLimb(int inward, const std::vector<LimbPoint>& first,
-                              const Blur* fixed_blur, const std::vector<bool>* use_band) const {
+                              const Blur* fixed_blur, const std::vector<bool>* use_band,
+                              double warm_delta) const {
   const bool toward_light = inward > 0 ? light_ < 0 : light_ > 0;
   const bool lit = !shadowed_limb_ || toward_light;
   const Line line = FitLimbLine(first, center_row_);
@@ -2449,7 +2475,9 @@ LimbFit LimbPlacer::JointLimb(int inward, const std::vector<LimbPoint>& first,
       if (sse < best.sse) best = {sse, delta, s};
       return sse;
     };
-    if (fine) {
+    if (fine && NearWarmStart(consider, warm_delta)) {
+      // Only near the unmoved fit's δ.
+    } else if (fine) {
       for (int k = -20; k <= 20; ++k) consider(0.05 * k);
       // A best at the end of the range: the first estimates are off by
       // more than a pixel (a wide blur's rise starts far out), so on,
@@ -2522,6 +2550,7 @@ LimbFit LimbPlacer::JointLimb(int inward, const std::vector<LimbPoint>& first,
   }
   fit.line = line;
   fit.line.at_center += final_scan.delta;
+  fit.delta = final_scan.delta;
   // Where glints cut a window short, the bands search around their own
   // first estimates rather than this line, which the glints draw in (0.5 px
   // at α = 140°, R = 256 px, the glints 1.4 px inside the limb): no band is
@@ -2540,12 +2569,13 @@ double LimbPlacer::HeldShift(int inward, const LimbFit& fit) const {
   return 0.5 * std::fabs(plus.at_center - minus.at_center);
 }
 
-double LimbPlacer::ThroughBlur(int inward, const std::vector<LimbPoint>& first, double sigma,
-                               double blur_stderr_px) const {
+double LimbPlacer::ThroughBlur(int inward, const std::vector<LimbPoint>& first,
+                               const LimbFit& fit, double blur_stderr_px) const {
   if (!(blur_stderr_px > 0.0)) return 0.0;
+  const double sigma = fit.blur.sigma;
   auto at = [&](double blur_px) {
     const Blur b = MakeBlur(std::max(0.0, blur_px));
-    const LimbFit f = JointLimb(inward, first, &b);
+    const LimbFit f = JointLimb(inward, first, &b, nullptr, fit.delta);
     if (!std::isfinite(f.scatter)) return std::numeric_limits<double>::quiet_NaN();
     return f.line.at_center;
   };
@@ -2878,7 +2908,7 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
                                        : kUnusedBlurPxPerPx2 * sigma * sigma);
     }
     (inward > 0 ? left_through_blur_px : right_through_blur_px) =
-        ThroughBlur(inward, points, sigma, blur_stderr_px);
+        ThroughBlur(inward, points, fit, blur_stderr_px);
     if (shadowed_limb_ && !toward_light) {
       // S held at zero in both passes: only the blur and the line are new.
       points = RefineLimb(inward, 0.0, lens, &fit.line);
