@@ -612,6 +612,9 @@ absl::Status CombFitOptions::Validate() const {
   if (max_iterations < 1 || polish_iterations < 1) {
     return absl::InvalidArgumentError("max_iterations and polish_iterations must be >= 1");
   }
+  if (!(polish_settled_share >= 0.0)) {
+    return absl::InvalidArgumentError("polish_settled_share must be >= 0");
+  }
   if (!(min_explained > 0.0 && min_explained <= min_explained_alone && min_explained_alone < 1.0)) {
     return absl::InvalidArgumentError(
         "need 0 < min_explained <= min_explained_alone < 1");
@@ -961,6 +964,46 @@ int SolveRough(const ceres::Solver::Options& solver, ceres::Problem* problem,
   return static_cast<int>(summary.iterations.size());
 }
 
+// Ends the polish once the answer has settled: once the largest move of
+// the max slope, the period or the mirror offset, in its statistical error
+// (`stderr`: the main solve's, ClusterErrors), over each of the last
+// kSettledSteps steps, times the iterations left to the cap, is below
+// `share` (CombFitOptions::polish_settled_share).
+class SettledAnswer : public ceres::IterationCallback {
+ public:
+  SettledAnswer(const double* shared, const double stderr[3], int cap, double share)
+      : shared_(shared), cap_(cap), share_(share) {
+    for (int p = 0; p < 3; ++p) {
+      stderr_[p] = stderr[p];
+      last_[p] = shared[p];
+    }
+  }
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    if (summary.iteration == 0 || !summary.step_is_successful) return ceres::SOLVER_CONTINUE;
+    double move = 0.0;
+    for (int p = 0; p < 3; ++p) {
+      move = std::max(move, std::fabs(shared_[p] - last_[p]) / stderr_[p]);
+      last_[p] = shared_[p];
+    }
+    moves_[steps_++ % kSettledSteps] = move;
+    if (steps_ < kSettledSteps) return ceres::SOLVER_CONTINUE;
+    const double largest = *std::max_element(moves_, moves_ + kSettledSteps);
+    const int left = cap_ - summary.iteration;
+    return largest * left < share_ ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+
+  static constexpr int kSettledSteps = 3;
+
+ private:
+  const double* shared_;
+  const int cap_;
+  const double share_;
+  double stderr_[3];
+  double last_[3];
+  double moves_[kSettledSteps] = {};
+  int steps_ = 0;
+};
+
 // The polish on all the pieces, after a main solve on fewer (kMain) that
 // ended at main_cost. It runs to a tight tolerance: stopped at the main
 // solve's (a relative cost change of 1e-5, which noise alone makes the
@@ -968,16 +1011,25 @@ int SolveRough(const ceres::Solver::Options& solver, ceres::Problem* problem,
 // fixture scene (scripts/noise_draws.py) its spread fell 2-30 fold to the
 // size the cluster-robust errors give (sin_m020_p60: 1.0 % to 0.03 %), and
 // a fixture whose answer hung on its start (silk_m10_srgb) came in (+0.18
-// to +0.06 deg). Returns its iterations; marks `summary` unsettled where
-// the polish slid rather than refined (below).
-int Polish(const ceres::Solver::Options& solver, int polish_iterations, double main_cost,
-           ceres::Problem* problem, Quadrature* quadrature, CombParams* params,
-           ceres::Solver::Summary* summary) {
+// to +0.06 deg). It ends sooner once the answer has settled (SettledAnswer,
+// given the main solve's errors in `stderr`, all finite and positive).
+// Returns its iterations; marks `summary` unsettled where the polish slid
+// rather than refined (below).
+int Polish(const ceres::Solver::Options& solver, const CombFitOptions& options, double main_cost,
+           const double* stderr, ceres::Problem* problem, Quadrature* quadrature,
+           CombParams* params, ceres::Solver::Summary* summary) {
   *quadrature = Quadrature::kFull;
   ceres::Solver::Options polish = solver;
-  polish.max_num_iterations = polish_iterations;
+  polish.max_num_iterations = options.polish_iterations;
   polish.function_tolerance = 1e-8;
   polish.parameter_tolerance = 1e-10;
+  std::unique_ptr<SettledAnswer> settled;
+  if (stderr != nullptr && options.polish_settled_share > 0.0) {
+    settled = std::make_unique<SettledAnswer>(params->shared, stderr, options.polish_iterations,
+                                              options.polish_settled_share);
+    polish.callbacks.push_back(settled.get());
+    polish.update_state_every_iteration = true;
+  }
   ceres::Solver::Summary last;
   const double log_sigma_before = params->log_sigma;
   ceres::Solve(polish, problem, &last);
@@ -1013,6 +1065,9 @@ int Polish(const ceres::Solver::Options& solver, int polish_iterations, double m
   }
   return static_cast<int>(last.iterations.size());
 }
+
+bool ClusterErrors(const CombProblemData& data, ceres::Problem* problem, CombParams* params,
+                   CombFitResult* result);
 
 // The rough solve, then to convergence on half the pieces (kMainPieces at
 // most), and a polish on all of them unless the main solve explains too
@@ -1051,7 +1106,13 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
   // Odd piece counts are never split (StrideFor): the main solve had them
   // all.
   if (data.pieces % 2 == 0) {
-    *iterations += Polish(solver, options.polish_iterations, summary.final_cost, problem,
+    CombFitResult main;
+    const bool errors = ClusterErrors(data, problem, params, &main);
+    const double stderr[3] = {main.max_slope_stderr, main.wavelength_stderr_mm,
+                              main.mirror_offset_stderr_rad};
+    const bool usable = errors && std::all_of(stderr, stderr + 3,
+                                              [](double e) { return std::isfinite(e) && e > 0.0; });
+    *iterations += Polish(solver, options, summary.final_cost, usable ? stderr : nullptr, problem,
                           quadrature, params, &summary);
   }
   return summary;

@@ -42,6 +42,16 @@ struct CombFitOptions {
   // Iterations of the polish on every sub-interval (its cap only ends a
   // refinement of a converged solve).
   int polish_iterations = 30;
+  // The polish ends sooner once its answer has settled: once the largest
+  // step of the max slope, the period or the mirror offset over each of the
+  // last three, in that quantity's statistical error at the main solve,
+  // times the iterations left to the cap, is below this share (0: to the
+  // cap or the tolerances). Were every step to the cap as long, the answer
+  // would stay within this share of its error of the capped polish's. On
+  // the independently rendered photographs the polish's cost fell by about
+  // 0.01 % a step to the cap, a crawl of the row phases that moved the max
+  // slope by 0.05 of its error in all, and took half the comb fit's time.
+  double polish_settled_share = 0.1;
   // The polish is skipped, and the fit not taken, when the main solve
   // leaves the glints explaining less than this share of the rows'
   // variance, where its pieces per bin are at least half of what the tilt's

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -454,6 +455,8 @@ TEST(CombFitTest, RightPeriodIsConfirmed) {
 // flung q out and was rejected, and on these scenes the max slope at the
 // cap differed from the one at four times it by 1.1 and 1.0 of its stated
 // errors (0.249970 and 0.249921; 0.250120 and 0.250081); now by nothing.
+// (The polish runs to its cap or its tolerances here: not ended once its
+// answer has settled, CombFitOptions::polish_settled_share.)
 TEST(CombFitTest, ASharpCombIsPolishedToConvergence) {
   for (const auto& [phase_deg, seed] : {std::pair{10.0, 8}, std::pair{60.0, 1}}) {
     SCOPED_TRACE(::testing::Message() << "phase " << phase_deg << " deg, seed " << seed);
@@ -463,8 +466,9 @@ TEST(CombFitTest, ASharpCombIsPolishedToConvergence) {
     scene.phase_angle_deg = phase_deg;
     scene.seed = seed;
     const Rendered r = Render(scene);
-    const CombFitOptions capped;
-    CombFitOptions longer;
+    CombFitOptions capped;
+    capped.polish_settled_share = 0.0;
+    CombFitOptions longer = capped;
     longer.polish_iterations = 4 * capped.polish_iterations;
     const CombRun a = RunComb(r, phase_deg, 3.0, capped);
     const CombRun b = RunComb(r, phase_deg, 3.0, longer);
@@ -476,6 +480,33 @@ TEST(CombFitTest, ASharpCombIsPolishedToConvergence) {
     EXPECT_NEAR(a.fit->wavelength_mm, b.fit->wavelength_mm, 0.05 * b.fit->wavelength_stderr_mm)
         << Describe(*a.fit) << " / " << Describe(*b.fit);
   }
+}
+
+// A polish whose answer has settled ends before its cap, and its answer
+// stays within CombFitOptions::polish_settled_share of its errors of the
+// answer the polish to its cap gives: a gauze in stray light whose axial
+// threads glint too, as in lab photographs. Measured: 30 iterations in all
+// against 48, the max slope 0.02 of its error from the polish to the cap's.
+TEST(CombFitTest, APolishEndsOnceItsAnswerHasSettled) {
+  RenderScene scene = GauzeScene();
+  scene.phase_angle_deg = 60.0;
+  scene.stray_light = 0.03;
+  scene.axial_glint_width = 0.15;
+  const Rendered r = Render(scene);
+  const CombFitOptions settled;
+  CombFitOptions to_cap;
+  to_cap.polish_settled_share = 0.0;
+  const CombRun a = RunComb(r, 60.0, kWavelengthMm, settled);
+  const CombRun b = RunComb(r, 60.0, kWavelengthMm, to_cap);
+  ASSERT_TRUE(a.fit.ok() && b.fit.ok()) << a.rows_status;
+  ASSERT_TRUE(a.fit->converged && b.fit->converged)
+      << Describe(*a.fit) << " / " << Describe(*b.fit);
+  EXPECT_LT(a.fit->iterations, b.fit->iterations);
+  const double share = settled.polish_settled_share;
+  EXPECT_NEAR(a.fit->max_slope, b.fit->max_slope, share * b.fit->max_slope_stderr);
+  EXPECT_NEAR(a.fit->wavelength_mm, b.fit->wavelength_mm, share * b.fit->wavelength_stderr_mm);
+  EXPECT_NEAR(a.fit->mirror_offset_rad, b.fit->mirror_offset_rad,
+              share * b.fit->mirror_offset_stderr_rad);
 }
 
 // A wrong period is not confirmed: it never both converges and explains 0.9
@@ -545,6 +576,9 @@ TEST(CombFitTest, InvalidArgumentsAreErrors) {
   EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
   options = CombFitOptions();
   options.subintervals = 0;
+  EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
+  options = CombFitOptions();
+  options.polish_settled_share = std::numeric_limits<double>::quiet_NaN();
   EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
 
   GlintModel model;
