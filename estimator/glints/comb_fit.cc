@@ -687,6 +687,23 @@ absl::StatusOr<CombRows> ChooseCombRows(const ArcSignals& signals, const GlintMo
   return out;
 }
 
+absl::StatusOr<CombRows> RephaseCombRows(const ArcSignals& signals, const GlintModel& model,
+                                         double wavelength_mm, const CombRows& rows) {
+  if (!(wavelength_mm > 0.0) || !(model.max_slope > 0.0) || !(model.mm_per_px > 0.0)) {
+    return absl::InvalidArgumentError("comb rows need a wavelength, a max slope and mm_per_px > 0");
+  }
+  const std::vector<double> phases =
+      RowPhasesMm(signals, model, wavelength_mm, GlintPeriodOptions());
+  CombRows out = rows;
+  for (std::size_t i = 0; i < out.rows.size(); ++i) {
+    const auto at = std::find(signals.rows.begin(), signals.rows.end(), out.rows[i]);
+    if (at == signals.rows.end()) continue;
+    const double phase = phases[at - signals.rows.begin()];
+    if (std::isfinite(phase)) out.phase_mm[i] = phase;
+  }
+  return out;
+}
+
 namespace {
 
 // The comb's rows in the fit's terms: every bin's footprint cut into its

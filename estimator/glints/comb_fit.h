@@ -141,6 +141,11 @@ struct CombRows {
 };
 absl::StatusOr<CombRows> ChooseCombRows(const ArcSignals& signals, const GlintModel& model,
                                         double wavelength_mm, int max_rows);
+// The same rows with their phases read again at `wavelength_mm` (a row
+// whose glints give none there keeps its phase): a second fit on the rows
+// of a first, from its answer.
+absl::StatusOr<CombRows> RephaseCombRows(const ArcSignals& signals, const GlintModel& model,
+                                         double wavelength_mm, const CombRows& rows);
 
 // Fits the comb to the chosen rows' pixels (covering the whole lobe and a
 // margin), starting from model.max_slope and `wavelength_mm` (the glint

@@ -348,6 +348,7 @@ TEST(GlintPeriodTest, ClippedGlintsStillCount) {
 struct CombRun {
   PeakPickingResult peaks;
   GlintModel model;
+  ArcSignals signals;
   CombRows rows;
   absl::Status rows_status;
   absl::StatusOr<CombFitResult> fit = absl::UnknownError("not run");
@@ -393,6 +394,7 @@ CombRun RunComb(const Rendered& rendered, double stated_phase_deg, double wavele
   absl::StatusOr<ArcSignals> signals = ExtractArcSignals(luminance, *cylinder, projection, wide);
   EXPECT_TRUE(signals.ok()) << signals.status();
   if (!signals.ok()) return run;
+  run.signals = *signals;
   absl::StatusOr<CombRows> rows =
       ChooseCombRows(*signals, run.model, wavelength_mm, options.max_rows);
   run.rows_status = rows.status();
@@ -507,6 +509,27 @@ TEST(CombFitTest, APolishEndsOnceItsAnswerHasSettled) {
   EXPECT_NEAR(a.fit->wavelength_mm, b.fit->wavelength_mm, share * b.fit->wavelength_stderr_mm);
   EXPECT_NEAR(a.fit->mirror_offset_rad, b.fit->mirror_offset_rad,
               share * b.fit->mirror_offset_stderr_rad);
+}
+
+// A second fit on a first's rows (the pipeline's, from the first's answer)
+// reads their phases again at its own period: the rows and their threads
+// stay, so that the two fits' shares explained compare on the same pixels.
+TEST(CombFitTest, RowsRephasedAreTheSameRows) {
+  const CombRun run = RunComb(GauzeRender(), 10.0, kWavelengthMm);
+  ASSERT_TRUE(run.rows_status.ok()) << run.rows_status;
+  absl::StatusOr<CombRows> same = RephaseCombRows(run.signals, run.model, kWavelengthMm, run.rows);
+  ASSERT_TRUE(same.ok()) << same.status();
+  EXPECT_EQ(same->rows, run.rows.rows);
+  EXPECT_EQ(same->thread, run.rows.thread);
+  EXPECT_EQ(same->phase_mm, run.rows.phase_mm);
+  absl::StatusOr<CombRows> longer =
+      RephaseCombRows(run.signals, run.model, 1.02 * kWavelengthMm, run.rows);
+  ASSERT_TRUE(longer.ok()) << longer.status();
+  EXPECT_EQ(longer->rows, run.rows.rows);
+  EXPECT_EQ(longer->thread, run.rows.thread);
+  EXPECT_NE(longer->phase_mm, run.rows.phase_mm);
+  EXPECT_EQ(RephaseCombRows(run.signals, run.model, 0.0, run.rows).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 // A wrong period is not confirmed: it never both converges and explains 0.9

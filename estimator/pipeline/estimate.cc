@@ -232,15 +232,15 @@ ArcSignalOptions WideArcRange(const PeakPickingResult& peaks, const Projection& 
   return wide;
 }
 
-absl::StatusOr<CombFitResult> FitCombOverLobe(const Image& luminance,
-                                              const CylinderGeometry& cylinder,
-                                              const Projection& projection,
-                                              const ArcSignalOptions& wide,
-                                              const ArcSignals& signals,
-                                              const GlintModel& model, double wavelength_mm,
-                                              const CombFitOptions& options) {
-  absl::StatusOr<CombRows> rows = ChooseCombRows(signals, model, wavelength_mm, options.max_rows);
+absl::StatusOr<CombFitResult> FitCombOverLobe(
+    const Image& luminance, const CylinderGeometry& cylinder, const Projection& projection,
+    const ArcSignalOptions& wide, const ArcSignals& signals, const GlintModel& model,
+    double wavelength_mm, const CombFitOptions& options, CombRows* chosen) {
+  absl::StatusOr<CombRows> rows =
+      chosen->rows.empty() ? ChooseCombRows(signals, model, wavelength_mm, options.max_rows)
+                           : RephaseCombRows(signals, model, wavelength_mm, *chosen);
   if (!rows.ok()) return rows.status();
+  *chosen = *rows;
   // Neighbouring columns binned so that a row holds at most
   // max_samples_per_row bins.
   const double columns = (OffsetFromAzimuth(wide.to_rad, projection) -
@@ -631,9 +631,11 @@ class CombFitter {
   const std::string& failure() const { return failure_; }
 
  private:
-  absl::StatusOr<CombFitResult> Fit(const GlintModel& model, double start) const {
+  // On `rows` when it holds any (phased anew at `start`), else on rows
+  // chosen for `start`, which it then holds.
+  absl::StatusOr<CombFitResult> Fit(const GlintModel& model, double start, CombRows* rows) const {
     return FitCombOverLobe(luminance_, cylinder_, projection_, wide_, wide_signals_, model, start,
-                           options_);
+                           options_, rows);
   }
   // The lens PSF the comb fit needs must be one the limbs could show: a
   // sawtooth's two columns of caustic glints (independently rendered, under
@@ -668,7 +670,8 @@ std::optional<CombFitResult> CombFitter::First(const std::vector<double>& starts
   failure_.clear();
   period_only_.reset();
   for (double start : starts) {
-    absl::StatusOr<CombFitResult> comb = Fit(model_, start);
+    CombRows rows;
+    absl::StatusOr<CombFitResult> comb = Fit(model_, start, &rows);
     if (comb.ok() && comb->converged && comb->explained >= std::min(needed, period_needed) &&
         Near(*comb, start, reach, model_.max_slope) && PsfPlausible(*comb)) {
       const bool whole = comb->explained >= needed;
@@ -676,10 +679,11 @@ std::optional<CombFitResult> CombFitter::First(const std::vector<double>& starts
       if (best.reduced_chi2 > 1.0) {
         // Residuals above the start's noise scale: a false optimum, or
         // structure the comb does not model. A second fit started from this
-        // one's max slope and period tells them apart; the better is kept.
+        // one's max slope and period, on the same rows, tells them apart:
+        // the one that explains more of those rows is kept.
         GlintModel again = model_;
         again.max_slope = best.max_slope;
-        absl::StatusOr<CombFitResult> second = Fit(again, best.wavelength_mm);
+        absl::StatusOr<CombFitResult> second = Fit(again, best.wavelength_mm, &rows);
         if (second.ok() && second->converged && second->explained > best.explained &&
             PsfPlausible(*second) && Near(*second, start, reach, model_.max_slope)) {
           best = *second;
