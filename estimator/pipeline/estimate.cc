@@ -232,6 +232,9 @@ ArcSignalOptions WideArcRange(const PeakPickingResult& peaks, const Projection& 
   return wide;
 }
 
+// The comb fit over the lobe from `wavelength_mm` and model.max_slope: on
+// `chosen`'s rows when it holds any (their phases read again there), else
+// on rows chosen for that start, which `chosen` then holds.
 absl::StatusOr<CombFitResult> FitCombOverLobe(
     const Image& luminance, const CylinderGeometry& cylinder, const Projection& projection,
     const ArcSignalOptions& wide, const ArcSignals& signals, const GlintModel& model,
