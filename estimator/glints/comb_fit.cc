@@ -983,15 +983,15 @@ int SolveRough(const ceres::Solver::Options& solver, ceres::Problem* problem,
 
 // Ends the polish once the answer has settled: once the largest move of
 // the max slope, the period or the mirror offset, in its statistical error
-// (`stderr`: the main solve's, ClusterErrors), over each of the last
+// (`errors`: the main solve's, ClusterErrors), over each of the last
 // kSettledSteps steps, times the iterations left to the cap, is below
 // `share` (CombFitOptions::polish_settled_share).
 class SettledAnswer : public ceres::IterationCallback {
  public:
-  SettledAnswer(const double* shared, const double stderr[3], int cap, double share)
+  SettledAnswer(const double* shared, const double errors[3], int cap, double share)
       : shared_(shared), cap_(cap), share_(share) {
     for (int p = 0; p < 3; ++p) {
-      stderr_[p] = stderr[p];
+      errors_[p] = errors[p];
       last_[p] = shared[p];
     }
   }
@@ -999,7 +999,7 @@ class SettledAnswer : public ceres::IterationCallback {
     if (summary.iteration == 0 || !summary.step_is_successful) return ceres::SOLVER_CONTINUE;
     double move = 0.0;
     for (int p = 0; p < 3; ++p) {
-      move = std::max(move, std::fabs(shared_[p] - last_[p]) / stderr_[p]);
+      move = std::max(move, std::fabs(shared_[p] - last_[p]) / errors_[p]);
       last_[p] = shared_[p];
     }
     moves_[steps_++ % kSettledSteps] = move;
@@ -1015,7 +1015,7 @@ class SettledAnswer : public ceres::IterationCallback {
   const double* shared_;
   const int cap_;
   const double share_;
-  double stderr_[3];
+  double errors_[3];
   double last_[3];
   double moves_[kSettledSteps] = {};
   int steps_ = 0;
@@ -1029,11 +1029,11 @@ class SettledAnswer : public ceres::IterationCallback {
 // size the cluster-robust errors give (sin_m020_p60: 1.0 % to 0.03 %), and
 // a fixture whose answer hung on its start (silk_m10_srgb) came in (+0.18
 // to +0.06 deg). It ends sooner once the answer has settled (SettledAnswer,
-// given the main solve's errors in `stderr`, all finite and positive).
+// given the main solve's errors in `errors`, all finite and positive).
 // Returns its iterations; marks `summary` unsettled where the polish slid
 // rather than refined (below).
 int Polish(const ceres::Solver::Options& solver, const CombFitOptions& options, double main_cost,
-           const double* stderr, ceres::Problem* problem, Quadrature* quadrature,
+           const double* errors, ceres::Problem* problem, Quadrature* quadrature,
            CombParams* params, ceres::Solver::Summary* summary) {
   *quadrature = Quadrature::kFull;
   ceres::Solver::Options polish = solver;
@@ -1041,8 +1041,8 @@ int Polish(const ceres::Solver::Options& solver, const CombFitOptions& options, 
   polish.function_tolerance = 1e-8;
   polish.parameter_tolerance = 1e-10;
   std::unique_ptr<SettledAnswer> settled;
-  if (stderr != nullptr && options.polish_settled_share > 0.0) {
-    settled = std::make_unique<SettledAnswer>(params->shared, stderr, options.polish_iterations,
+  if (errors != nullptr && options.polish_settled_share > 0.0) {
+    settled = std::make_unique<SettledAnswer>(params->shared, errors, options.polish_iterations,
                                               options.polish_settled_share);
     polish.callbacks.push_back(settled.get());
     polish.update_state_every_iteration = true;
@@ -1123,13 +1123,14 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
   // Odd piece counts are never split (StrideFor): the main solve had them
   // all.
   if (data.pieces % 2 == 0) {
-    CombFitResult main;
-    const bool errors = ClusterErrors(data, problem, params, &main);
-    const double stderr[3] = {main.max_slope_stderr, main.wavelength_stderr_mm,
-                              main.mirror_offset_stderr_rad};
-    const bool usable = errors && std::all_of(stderr, stderr + 3,
-                                              [](double e) { return std::isfinite(e) && e > 0.0; });
-    *iterations += Polish(solver, options, summary.final_cost, usable ? stderr : nullptr, problem,
+    CombFitResult at_main;
+    const bool evaluated = ClusterErrors(data, problem, params, &at_main);
+    const double errors[3] = {at_main.max_slope_stderr, at_main.wavelength_stderr_mm,
+                              at_main.mirror_offset_stderr_rad};
+    const bool usable = evaluated && std::all_of(errors, errors + 3, [](double e) {
+                          return std::isfinite(e) && e > 0.0;
+                        });
+    *iterations += Polish(solver, options, summary.final_cost, usable ? errors : nullptr, problem,
                           quadrature, params, &summary);
   }
   return summary;
