@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -104,7 +105,27 @@ struct CombAt {
   double k = 0.0;        // 2π/λ
   double reach = 0.0;    // arctan|m| + 8σ: no miss at a bin's ends beyond it is lit
   bool gradient = true;  // whether the derivatives are wanted
+  // Where axial threads float over the circumferential thread (Hidden):
+  // the weave phase of the floats' middles and their half-width (rad of
+  // θ); half-width 0 where they are not modelled.
+  double float_centre = 0.0, float_half = 0.0;
 };
+
+// The share of a circumferential thread hidden at weave phase θ = k·(s + c)
+// and its derivative by θ. In a plain weave each axial thread passes over
+// a circumferential one at its trough, once a period (DESIGN.md §3: the
+// axial threads glint where they pass over the circumferential threads),
+// and there hides it: a glint of the comb that falls within such a float is
+// not seen. A box of half-width `half` about `centre`, its edges smoothed
+// over kFloatEdge (the floats' round edges; a hard edge would make the cost
+// jump as a glint crosses it).
+constexpr double kFloatEdge = 0.05 * M_PI;
+double Hidden(double theta, const CombAt& at, double* by_theta) {
+  const double x = std::remainder(theta - at.float_centre, 2.0 * M_PI);
+  const double t = std::tanh((at.float_half - std::fabs(x)) / kFloatEdge);
+  *by_theta = -0.5 * (1.0 - t * t) / kFloatEdge * (x < 0.0 ? -1.0 : 1.0);
+  return 0.5 * (1.0 + t);
+}
 
 CombAt MakeCombAt(double m, double lambda, double delta, double sigma, bool gradient) {
   return {m, lambda, delta, sigma, 2.0 * M_PI / lambda, std::atan(std::fabs(m)) + 8.0 * sigma,
@@ -122,6 +143,7 @@ struct BinNodes {
   double g[kMaxNodes], h[kMaxNodes], pdf[kMaxNodes], cdf[kMaxNodes];
   double dg[kMaxNodes][3], dh[kMaxNodes][3];  // by m, λ, c
   int side[kMaxNodes];                         // Beyond(g, σ)
+  double theta[kMaxNodes];                     // the weave phase k·(s + c)
 };
 
 // A node more than 8σ beyond the mirror: +1 past it, −1 short of it, 0 near.
@@ -151,6 +173,7 @@ bool ReadBinNodes(const Row& row, const Bin& bin, int stride, const CombAt& at, 
   cos_t[0] = std::cos(theta0);
   sin_t[0] = std::sin(theta0);
   double h_lo = at.m * cos_t[0], h_hi = h_lo;
+  for (int n = 0; n < nodes; ++n) out->theta[n] = theta0 + n * step;
   for (int n = 1; n < nodes; ++n) {
     cos_t[n] = cos_t[n - 1] * cos_step - sin_t[n - 1] * sin_step;
     sin_t[n] = sin_t[n - 1] * cos_step + cos_t[n - 1] * sin_step;
@@ -241,8 +264,15 @@ void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span,
     d_ga = d_gb = -0.5 * f * z / sigma * span;
     d_log_sigma = f * (z * z - 1.0) * span;
   }
-  *total += sec * piece;
-  if (part != nullptr) part->value += sec * piece;
+  // The share of the thread seen there (1 where no floats are modelled).
+  double seen = 1.0, seen_by_theta = 0.0;
+  const double theta_mid = 0.5 * (nd.theta[a] + nd.theta[b]);
+  if (at.float_half > 0.0) {
+    seen = 1.0 - Hidden(theta_mid, at, &seen_by_theta);
+    seen_by_theta = -seen_by_theta;
+  }
+  *total += seen * sec * piece;
+  if (part != nullptr) part->value += seen * sec * piece;
   if (!at.gradient) return;
   const double dsec = h_mid / sec;
   double d5[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
@@ -252,6 +282,12 @@ void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span,
   }
   d5[2] = sec * d_log_sigma;
   d5[4] = -sec * (d_ga + d_gb);  // dg/dδ = −1 at every node
+  if (at.float_half > 0.0) {
+    for (int p = 0; p < 5; ++p) d5[p] *= seen;
+    // dθ/dλ = −θ/λ, dθ/dc = k.
+    d5[1] += sec * piece * seen_by_theta * (-theta_mid / at.lambda);
+    d5[3] += sec * piece * seen_by_theta * at.k;
+  }
   for (int p = 0; p < 5; ++p) g5[p] += d5[p];
   if (part != nullptr) {
     for (int p = 0; p < 5; ++p) part->grad[p] += d5[p];
@@ -420,6 +456,9 @@ const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
 // Everything the model needs but the row's level and baseline.
 struct Shared {
   double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_l = 0.0;
+  // The axial threads' floats that hide the comb (CombAt, Hidden): held
+  // through a fit at the start's choice.
+  double float_centre = 0.0, float_half = 0.0;
   // The softplus: σ grows as ℓ for large ℓ and nears the floor as e^ℓ. A
   // comb sharper than a pixel has its optimum at the floor. A form with no
   // slope there (σ = hypot(q, 0.1)) makes the Gauss-Newton step in q grow
@@ -444,7 +483,9 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
   const double psf_px = p.PsfPx();
   const double dlog_dl =  // ∂ ln σ / ∂ℓ: the logistic of ℓ over σ
       1.0 / ((1.0 + std::exp(-p.psf_l)) * psf_px);
-  const CombAt comb = MakeCombAt(p.m, p.lambda, p.delta, sigma, grad != nullptr);
+  CombAt comb = MakeCombAt(p.m, p.lambda, p.delta, sigma, grad != nullptr);
+  comb.float_centre = p.float_centre;
+  comb.float_half = p.float_half;
   std::vector<double> out(n, 0.0);
   if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
   if (!in_pixel) {
@@ -510,10 +551,15 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
 // (m, λ, δ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
 class RowCost : public ceres::CostFunction {
  public:
-  RowCost(const Row* row, int bin_px, bool in_pixel, double inv_scale,
-          const Quadrature* quadrature)
-      : row_(row), bin_px_(bin_px), in_pixel_(in_pixel), inv_scale_(inv_scale),
-        quadrature_(quadrature) {
+  RowCost(const Row* row, int bin_px, bool in_pixel, double inv_scale, const Quadrature* quadrature,
+          double float_centre, double float_half)
+      : row_(row),
+        bin_px_(bin_px),
+        in_pixel_(in_pixel),
+        inv_scale_(inv_scale),
+        quadrature_(quadrature),
+        float_centre_(float_centre),
+        float_half_(float_half) {
     set_num_residuals(static_cast<int>(row->bins.size()));
     mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
   }
@@ -526,6 +572,8 @@ class RowCost : public ceres::CostFunction {
     p.delta = parameters[0][2];
     p.log_sigma = parameters[1][0];
     p.psf_l = parameters[2][0];
+    p.float_centre = float_centre_;
+    p.float_half = float_half_;
     const double* own = parameters[3];
     if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma) ||
         !std::isfinite(p.PsfPx())) {
@@ -569,6 +617,7 @@ class RowCost : public ceres::CostFunction {
   bool in_pixel_;
   double inv_scale_;
   const Quadrature* quadrature_;  // the fit's current one (coarse while starting)
+  double float_centre_, float_half_;  // the floats that hide the comb (held)
 };
 
 // Level and baseline of a row for a given shape, by linear least squares
@@ -887,6 +936,51 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
   return p;
 }
 
+// A comb's parameters and each row's own, as fitted or to start from.
+struct CombSolution {
+  Shared p;
+  OwnParams own;
+};
+
+// The floats that hide the comb (Hidden) which explain the rows best at a
+// fitted comb, each row's level and baseline solved anew: their middle at
+// either extreme of the undulation (which of them is the trough depends on
+// which face of the cloth is out), their width from a thirtieth to a fifth
+// of the period (a float spans the axial thread's width, under half the
+// threads' pitch, λ/2). Kept only where they leave less than
+// kFloatsResidualShare of the comb's residual sum of squares: a mask over
+// glints that the photograph does show raises it, and noise alone moves it
+// by far less.
+constexpr double kFloatsResidualShare = 0.9;
+std::optional<CombSolution> BestFloats(const CombProblemData& data, const CombSolution& fitted) {
+  auto rss_at = [&](const Shared& trial, OwnParams* own) {
+    double rss = 0.0;
+    for (std::size_t i = 0; i < data.rows.size(); ++i) {
+      const std::vector<double> shape = RowShape(data.rows[i], Quadrature::kRough, data.bin_px,
+                                                 data.in_pixel, trial, (*own)[i][0], nullptr);
+      rss += SolveLinear(data.rows[i], shape, (*own)[i].data());
+    }
+    return rss;
+  };
+  OwnParams own = fitted.own;
+  const double plain = rss_at(fitted.p, &own);
+  std::optional<CombSolution> best;
+  double best_rss = kFloatsResidualShare * plain;
+  for (double centre : {-0.5 * M_PI, 0.5 * M_PI}) {
+    for (double half : {0.1, 0.2, 0.3, 0.4, 0.5, 0.6}) {
+      CombSolution trial = fitted;
+      trial.p.float_centre = centre;
+      trial.p.float_half = half;
+      const double rss = rss_at(trial.p, &trial.own);
+      if (rss < best_rss) {
+        best_rss = rss;
+        best = std::move(trial);
+      }
+    }
+  }
+  return best;
+}
+
 // Noise scale: the median absolute residual at the start, as a σ, but no
 // smaller than the pixel noise averaged over a bin.
 double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams& own,
@@ -935,8 +1029,11 @@ struct CombParams {
   double log_sigma = 0.0;
   double psf_l = 0.0;
   OwnParams own;
+  double float_centre = 0.0, float_half = 0.0;
   Shared AsShared() const {
     Shared p;
+    p.float_centre = float_centre;
+    p.float_half = float_half;
     p.m = shared[0];
     p.lambda = shared[1];
     p.delta = shared[2];
@@ -951,10 +1048,10 @@ struct CombParams {
 void AddRowCosts(const CombProblemData& data, double scale, const Quadrature* quadrature,
                  CombParams* params, ceres::Problem* problem) {
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
-    problem->AddResidualBlock(
-        new RowCost(&data.rows[i], data.bin_px, data.in_pixel, 1.0 / scale, quadrature),
-        nullptr, params->shared, &params->log_sigma, &params->psf_l,
-        params->own[i].data());
+    problem->AddResidualBlock(new RowCost(&data.rows[i], data.bin_px, data.in_pixel, 1.0 / scale,
+                                          quadrature, params->float_centre, params->float_half),
+                              nullptr, params->shared, &params->log_sigma, &params->psf_l,
+                              params->own[i].data());
   }
 }
 
@@ -1199,24 +1296,19 @@ bool ClusterErrors(const CombProblemData& data, ceres::Problem* problem, CombPar
   return true;
 }
 
-}  // namespace
-
-absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRows& chosen,
-                                           const GlintModel& model, double wavelength_mm,
-                                           const CombFitOptions& options) {
-  if (absl::Status s = options.Validate(); !s.ok()) return s;
-  if (!(wavelength_mm > 0.0) || !(model.max_slope > 0.0) || !(model.mm_per_px > 0.0)) {
-    return absl::InvalidArgumentError("comb fit needs a wavelength, a max slope and mm_per_px > 0");
-  }
-  if (pixels.rows.size() != chosen.rows.size() || pixels.rows.empty()) {
-    return absl::InvalidArgumentError("comb fit: one pixel signal per chosen row is needed");
-  }
-  absl::StatusOr<CombProblemData> built =
-      BuildCombProblem(pixels, chosen, model, wavelength_mm, options);
-  if (!built.ok()) return built.status();
-  const CombProblemData& data = *built;
+// One fit of the comb, from StartComb's start or from `from`; its answer
+// into `out` when non-null.
+absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintModel& model,
+                                      double wavelength_mm, const CombFitOptions& options,
+                                      const CombSolution* from, CombSolution* out) {
   CombParams params;
-  const Shared p = StartComb(data, model, wavelength_mm, &params.own);
+  Shared p;
+  if (from != nullptr) {
+    p = from->p;
+    params.own = from->own;
+  } else {
+    p = StartComb(data, model, wavelength_mm, &params.own);
+  }
   const double scale = NoiseScale(data, p, params.own, model.pixel_noise);
   if (!(scale > 0.0)) return absl::InvalidArgumentError("comb fit: the rows hold no signal");
   params.shared[0] = p.m;
@@ -1224,6 +1316,8 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   params.shared[2] = p.delta;
   params.log_sigma = p.log_sigma;
   params.psf_l = p.psf_l;
+  params.float_centre = p.float_centre;
+  params.float_half = p.float_half;
   Quadrature quadrature = Quadrature::kFull;
   ceres::Problem problem;
   AddRowCosts(data, scale, &quadrature, &params, &problem);
@@ -1232,6 +1326,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
       SolveComb(data, options, &problem, &quadrature, &params, &result.iterations);
 
   const Shared fit = params.AsShared();
+  if (out != nullptr) *out = {fit, params.own};
   result.rows_used = static_cast<int>(data.rows.size());
   result.threads_used = static_cast<int>(data.distinct.size());
   result.max_slope = fit.m;
@@ -1239,6 +1334,7 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   result.blur_rad = std::exp(fit.log_sigma);
   result.mirror_offset_rad = fit.delta;
   result.psf_px = fit.PsfPx();
+  result.hidden_share = fit.float_half / M_PI;
   // No bounds in the solver (they cost it a line search per step); a result
   // outside them is not a fit of this comb.
   result.converged = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
@@ -1268,6 +1364,59 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
     result.message = "the Jacobian could not be evaluated";
   }
   return result;
+}
+
+// Whether a comb fit leaves the rows short of its model: not converged,
+// explaining less than CombFitOptions::min_explained of them, or needing a
+// lens PSF the limbs do not show.
+bool FallsShort(const CombFitResult& fit, const GlintModel& model, const CombFitOptions& options) {
+  return !fit.converged || fit.explained < options.min_explained ||
+         !CombPsfPlausible(fit.psf_px, model.lens_blur_px);
+}
+
+}  // namespace
+
+bool CombPsfPlausible(double psf_px, double lens_blur_px) {
+  return psf_px <= std::max(2.0 * lens_blur_px, lens_blur_px + kCombMaxExtraPsfPx);
+}
+
+absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRows& chosen,
+                                           const GlintModel& model, double wavelength_mm,
+                                           const CombFitOptions& options) {
+  if (absl::Status s = options.Validate(); !s.ok()) return s;
+  if (!(wavelength_mm > 0.0) || !(model.max_slope > 0.0) || !(model.mm_per_px > 0.0)) {
+    return absl::InvalidArgumentError("comb fit needs a wavelength, a max slope and mm_per_px > 0");
+  }
+  if (pixels.rows.size() != chosen.rows.size() || pixels.rows.empty()) {
+    return absl::InvalidArgumentError("comb fit: one pixel signal per chosen row is needed");
+  }
+  absl::StatusOr<CombProblemData> built =
+      BuildCombProblem(pixels, chosen, model, wavelength_mm, options);
+  if (!built.ok()) return built.status();
+  CombSolution fitted;
+  absl::StatusOr<CombFitResult> comb =
+      FitComb(*built, model, wavelength_mm, options, nullptr, &fitted);
+  if (!comb.ok() || !comb->converged || !options.model_floats ||
+      !FallsShort(*comb, model, options)) {
+    return comb;
+  }
+  // The comb alone leaves the rows short: where the axial threads float
+  // over the circumferential ones they hide the glints the comb predicts
+  // there (Hidden), which it may have smeared its PSF or its slope to
+  // explain. Where floats would explain its residuals (BestFloats), the fit
+  // with them, from its answer, is kept if it converges to a PSF the limbs
+  // could show and explains more of the rows.
+  const std::optional<CombSolution> masked = BestFloats(*built, fitted);
+  if (!masked) return comb;
+  absl::StatusOr<CombFitResult> hidden =
+      FitComb(*built, model, wavelength_mm, options, &*masked, nullptr);
+  if (hidden.ok() && hidden->converged && CombPsfPlausible(hidden->psf_px, model.lens_blur_px) &&
+      (!CombPsfPlausible(comb->psf_px, model.lens_blur_px) ||
+       hidden->explained > comb->explained)) {
+    hidden->iterations += comb->iterations;
+    return hidden;
+  }
+  return comb;
 }
 
 PeriodReadings ComparePeriods(const CombFitResult& comb, const CombFitOptions& options,
