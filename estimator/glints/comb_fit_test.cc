@@ -283,7 +283,7 @@ TEST(CombFitTest, WrongStatedPhaseAngleIsReported) {
 }
 
 // The thread period from the glints along the lobe's rows, as the pipeline
-// searches it (EstimateWavelength: ExtractArcSignals over 0.9 of the half
+// searches it (ReadWavelength: ExtractArcSignals over 0.9 of the half
 // spacing, then EstimateGlintPeriod) after detection, but with the lobe's
 // place and max slope from the render's truth: peak picking on an
 // overexposed lobe is not what these tests measure, and it misreads this
