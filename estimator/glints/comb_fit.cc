@@ -1190,7 +1190,7 @@ bool ClusterErrors(const CombProblemData& data, ceres::Problem* problem, CombPar
 // the polish was skipped); `iterations` gets all three's.
 ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptions& options,
                                  ceres::Problem* problem, Quadrature* quadrature,
-                                 CombParams* params, int* iterations) {
+                                 CombParams* params, int* iterations, bool rough = true) {
   ceres::Solver::Options solver;
   solver.linear_solver_type = ceres::DENSE_SCHUR;
   solver.max_num_iterations = options.max_iterations;
@@ -1200,7 +1200,7 @@ ceres::Solver::Summary SolveComb(const CombProblemData& data, const CombFitOptio
   // solver's defaults.
   solver.function_tolerance = 1e-5;
   solver.parameter_tolerance = 1e-5;
-  *iterations = SolveRough(solver, problem, quadrature, params);
+  *iterations = rough ? SolveRough(solver, problem, quadrature, params) : 0;
   *quadrature = Quadrature::kMain;
   ceres::Solver::Summary summary;
   ceres::Solve(solver, problem, &summary);
@@ -1323,7 +1323,7 @@ absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintMo
   AddRowCosts(data, scale, &quadrature, &params, &problem);
   CombFitResult result;
   const ceres::Solver::Summary summary =
-      SolveComb(data, options, &problem, &quadrature, &params, &result.iterations);
+      SolveComb(data, options, &problem, &quadrature, &params, &result.iterations, from == nullptr);
 
   const Shared fit = params.AsShared();
   if (out != nullptr) *out = {fit, params.own};
