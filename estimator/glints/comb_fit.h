@@ -111,9 +111,9 @@ struct CombFitOptions {
   // fit models the axial threads' floats, which hide the circumferential
   // thread and its glints once a period (FitGlintComb). Where a period
   // spans many pixels the comb alone smears its PSF over the glints it
-  // predicts there: on weavefit's renders of a plain weave at 70 px per
-  // period it explained 47-78 % of the rows or needed a PSF of 1.4-2.9 px
-  // where the limbs showed none, and was refused.
+  // predicts there: on weavefit's renders of a plain weave at 43-139 px
+  // per period it explained 47-78 % of the rows, or 93 % with a PSF of
+  // 2.9 px where the limbs showed none, and was refused.
   bool model_floats = true;
 
   absl::Status Validate() const;
