@@ -1366,11 +1366,11 @@ absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintMo
   return result;
 }
 
-// Whether a comb fit leaves the rows short of its model: not converged,
+// Whether a converged comb fit leaves the rows short of its model:
 // explaining less than CombFitOptions::min_explained of them, or needing a
 // lens PSF the limbs do not show.
 bool FallsShort(const CombFitResult& fit, const GlintModel& model, const CombFitOptions& options) {
-  return !fit.converged || fit.explained < options.min_explained ||
+  return fit.explained < options.min_explained ||
          !CombPsfPlausible(fit.psf_px, model.lens_blur_px);
 }
 

@@ -106,7 +106,7 @@ struct CombFitOptions {
   // inconsistent phase angle.
   double mirror_floor_rad = 0.03 * 3.14159265358979323846 / 180.0;
   double mirror_tolerance_rad = 0.25 * 3.14159265358979323846 / 180.0;
-  // Where the comb alone falls short (not converged, explaining less than
+  // Where the comb alone converges but falls short (explaining less than
   // min_explained, or needing a lens PSF the limbs do not show), a second
   // fit models the axial threads' floats, which hide the circumferential
   // thread and its glints once a period (FitGlintComb). Where a period
