@@ -12,6 +12,8 @@
 #include <optional>
 #include <vector>
 
+#include <opencv2/core/utility.hpp>
+
 #include "absl/status/status.h"
 #include "absl/strings/str_format.h"
 #include "estimator/cylinder/azimuth_mapping.h"
@@ -453,6 +455,28 @@ const Kernel& PsfKernel(bool in_pixel, double sigma_bins, int parts) {
   return slot.kernel;
 }
 
+// Calls f(i) for every row i < n, rows in parallel (OpenCV's pool). Each
+// row's model is its own (its bins, its phase): a caller that writes row
+// i's result to slot i and sums the slots in order afterwards gets the same
+// answer, to the bit, on any number of threads.
+template <class F>
+void ForEachRow(std::size_t n, const F& f) {
+  cv::parallel_for_(cv::Range(0, static_cast<int>(n)), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) f(static_cast<std::size_t>(i));
+  });
+}
+
+// The sum over rows i < n of f(i), computed in parallel and added in row
+// order (ForEachRow).
+template <class F>
+double SumOverRows(std::size_t n, const F& f) {
+  std::vector<double> each(n, 0.0);
+  ForEachRow(n, [&](std::size_t i) { each[i] = f(i); });
+  double sum = 0.0;
+  for (double v : each) sum += v;
+  return sum;
+}
+
 // Everything the model needs but the row's level and baseline.
 struct Shared {
   double m = 0.0, lambda = 0.0, delta = 0.0, log_sigma = 0.0, psf_l = 0.0;
@@ -546,79 +570,6 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
   }
   return out;
 }
-
-// One row's residuals, in units of the noise scale: parameter blocks
-// (m, λ, δ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
-class RowCost : public ceres::CostFunction {
- public:
-  RowCost(const Row* row, int bin_px, bool in_pixel, double inv_scale, const Quadrature* quadrature,
-          double float_centre, double float_half)
-      : row_(row),
-        bin_px_(bin_px),
-        in_pixel_(in_pixel),
-        inv_scale_(inv_scale),
-        quadrature_(quadrature),
-        float_centre_(float_centre),
-        float_half_(float_half) {
-    set_num_residuals(static_cast<int>(row->bins.size()));
-    mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
-  }
-
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    Shared p;
-    p.m = parameters[0][0];
-    p.lambda = parameters[0][1];
-    p.delta = parameters[0][2];
-    p.log_sigma = parameters[1][0];
-    p.psf_l = parameters[2][0];
-    p.float_centre = float_centre_;
-    p.float_half = float_half_;
-    const double* own = parameters[3];
-    if (!(p.lambda > 0.0) || !std::isfinite(p.m) || !std::isfinite(p.log_sigma) ||
-        !std::isfinite(p.PsfPx())) {
-      return false;
-    }
-    std::vector<std::array<double, 6>> grad;
-    const std::vector<double> shape =
-        RowShape(*row_, *quadrature_, bin_px_, in_pixel_, p, own[0],
-                 jacobians != nullptr ? &grad : nullptr);
-    const int n = static_cast<int>(shape.size());
-    for (int j = 0; j < n; ++j) {
-      const Bin& b = row_->bins[j];
-      residuals[j] =
-          b.valid ? (own[1] * shape[j] + own[2] + own[3] * b.from_mid - b.value) * inv_scale_ : 0.0;
-    }
-    if (jacobians == nullptr) return true;
-    for (int j = 0; j < n; ++j) {
-      const Bin& b = row_->bins[j];
-      const double a = b.valid ? own[1] * inv_scale_ : 0.0;
-      const double one = b.valid ? inv_scale_ : 0.0;
-      if (jacobians[0] != nullptr) {
-        jacobians[0][3 * j] = a * grad[j][0];
-        jacobians[0][3 * j + 1] = a * grad[j][1];
-        jacobians[0][3 * j + 2] = a * grad[j][4];
-      }
-      if (jacobians[1] != nullptr) jacobians[1][j] = a * grad[j][2];
-      if (jacobians[2] != nullptr) jacobians[2][j] = a * grad[j][5];
-      if (jacobians[3] != nullptr) {
-        jacobians[3][kOwn * j] = a * grad[j][3];
-        jacobians[3][kOwn * j + 1] = one * shape[j];
-        jacobians[3][kOwn * j + 2] = one;
-        jacobians[3][kOwn * j + 3] = one * b.from_mid;
-      }
-    }
-    return true;
-  }
-
- private:
-  const Row* row_;
-  int bin_px_;
-  bool in_pixel_;
-  double inv_scale_;
-  const Quadrature* quadrature_;  // the fit's current one (coarse while starting)
-  double float_centre_, float_half_;  // the floats that hide the comb (held)
-};
 
 // Level and baseline of a row for a given shape, by linear least squares
 // over its valid bins (level held at zero when it comes out negative).
@@ -877,16 +828,15 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
   own.assign(rows.size(), {0.0, 0.0, 0.0, 0.0});
   for (std::size_t i = 0; i < rows.size(); ++i) own[i][0] = rows[i].phase_mm;
   auto total_rss = [&](const Shared& trial, OwnParams* out) {
-    double rss = 0.0;
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      rss += SolveLinear(rows[i], RowShape(rows[i], coarse, bin_px, in_pixel, trial, (*out)[i][0], nullptr),
+    return SumOverRows(rows.size(), [&](std::size_t i) {
+      return SolveLinear(rows[i],
+                         RowShape(rows[i], coarse, bin_px, in_pixel, trial, (*out)[i][0], nullptr),
                          (*out)[i].data());
-    }
-    return rss;
+    });
   };
   auto refine_phases = [&]() {
     const double step = wavelength_mm / 192.0;
-    for (std::size_t i = 0; i < rows.size(); ++i) {
+    ForEachRow(rows.size(), [&](std::size_t i) {
       double best = -1.0;
       std::array<double, kOwn> keep = own[i];
       for (int d = -4; d <= 4; ++d) {
@@ -900,7 +850,7 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
         }
       }
       own[i] = keep;
-    }
+    });
   };
   double best = -1.0;
   Shared start = p;
@@ -954,13 +904,11 @@ struct CombSolution {
 constexpr double kFloatsResidualShare = 0.9;
 std::optional<CombSolution> BestFloats(const CombProblemData& data, const CombSolution& fitted) {
   auto rss_at = [&](const Shared& trial, OwnParams* own) {
-    double rss = 0.0;
-    for (std::size_t i = 0; i < data.rows.size(); ++i) {
+    return SumOverRows(data.rows.size(), [&](std::size_t i) {
       const std::vector<double> shape = RowShape(data.rows[i], Quadrature::kRough, data.bin_px,
                                                  data.in_pixel, trial, (*own)[i][0], nullptr);
-      rss += SolveLinear(data.rows[i], shape, (*own)[i].data());
-    }
-    return rss;
+      return SolveLinear(data.rows[i], shape, (*own)[i].data());
+    });
   };
   OwnParams own = fitted.own;
   const double plain = rss_at(fitted.p, &own);
@@ -985,11 +933,15 @@ std::optional<CombSolution> BestFloats(const CombProblemData& data, const CombSo
 // smaller than the pixel noise averaged over a bin.
 double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams& own,
                   double pixel_noise) {
+  std::vector<std::vector<double>> shapes(data.rows.size());
+  ForEachRow(data.rows.size(), [&](std::size_t i) {
+    shapes[i] = RowShape(data.rows[i], Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0],
+                         nullptr);
+  });
   std::vector<double> abs_res;
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     const Row& row = data.rows[i];
-    const std::vector<double> shape =
-        RowShape(row, Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0], nullptr);
+    const std::vector<double>& shape = shapes[i];
     for (std::size_t j = 0; j < row.bins.size(); ++j) {
       const Bin& b = row.bins[j];
       if (!b.valid) continue;
@@ -1004,11 +956,15 @@ double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams&
 // fitted); `rss` gets the residual sum of squares.
 double ExplainedShare(const CombProblemData& data, const Shared& p, const OwnParams& own,
                       double* rss_out) {
+  std::vector<std::vector<double>> shapes(data.rows.size());
+  ForEachRow(data.rows.size(), [&](std::size_t i) {
+    shapes[i] = RowShape(data.rows[i], Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0],
+                         nullptr);
+  });
   double rss = 0.0, base = 0.0;
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     const Row& row = data.rows[i];
-    const std::vector<double> shape =
-        RowShape(row, Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0], nullptr);
+    const std::vector<double>& shape = shapes[i];
     std::array<double, kOwn> flat = own[i];
     base += SolveLinear(row, std::vector<double>(shape.size(), 0.0), flat.data());
     for (std::size_t j = 0; j < row.bins.size(); ++j) {
@@ -1043,13 +999,149 @@ struct CombParams {
   }
 };
 
+// Every row's modelled shape (RowShape) at the solver's current point,
+// computed for all rows at once, in parallel (ForEachRow), before Ceres
+// asks the rows' costs for their residuals: the rows' shapes are nearly
+// all of a solve's time, and Ceres's own threads would sum the rows' costs
+// in an order that varies from run to run.
+class RowShapes : public ceres::EvaluationCallback {
+ public:
+  RowShapes(const CombProblemData& data, const CombParams& params, const Quadrature& quadrature)
+      : data_(data), params_(params), quadrature_(quadrature), rows_(data.rows.size()) {}
+
+  void PrepareForEvaluation(bool jacobians, bool /*new_point*/) override {
+    const Shared p = params_.AsShared();
+    if (!Valid(p)) return;
+    ForEachRow(rows_.size(), [&](std::size_t i) { Compute(i, p, params_.own[i][0], jacobians); });
+  }
+
+  static bool Valid(const Shared& p) {
+    return p.lambda > 0.0 && std::isfinite(p.m) && std::isfinite(p.log_sigma) &&
+           std::isfinite(p.PsfPx());
+  }
+
+  // Row i's shape at (p, c), with its gradient if `jacobians`: as prepared,
+  // or computed here where Ceres evaluates a point it did not announce.
+  // Not thread-safe: the solves run on one thread (SolveComb).
+  const std::vector<double>& Shape(std::size_t i, const Shared& p, double c, bool jacobians,
+                                   const std::vector<std::array<double, 6>>** grad) {
+    Entry& e = rows_[i];
+    if (!e.Holds(p, c, quadrature_, jacobians)) Compute(i, p, c, jacobians);
+    *grad = &e.grad;
+    return e.shape;
+  }
+
+ private:
+  struct Entry {
+    bool filled = false, with_grad = false;
+    Quadrature quadrature = Quadrature::kFull;
+    double key[8] = {};
+    std::vector<double> shape;
+    std::vector<std::array<double, 6>> grad;
+    static void Key(const Shared& p, double c, double out[8]) {
+      const double k[8] = {p.m,     p.lambda, p.delta,        p.log_sigma,
+                           p.psf_l, c,        p.float_centre, p.float_half};
+      std::copy(k, k + 8, out);
+    }
+    bool Holds(const Shared& p, double c, Quadrature q, bool jacobians) const {
+      double k[8];
+      Key(p, c, k);
+      return filled && quadrature == q && (with_grad || !jacobians) && std::equal(k, k + 8, key);
+    }
+  };
+
+  void Compute(std::size_t i, const Shared& p, double c, bool jacobians) {
+    Entry& e = rows_[i];
+    e.shape = RowShape(data_.rows[i], quadrature_, data_.bin_px, data_.in_pixel, p, c,
+                       jacobians ? &e.grad : nullptr);
+    e.filled = true;
+    e.with_grad = jacobians;
+    e.quadrature = quadrature_;
+    Entry::Key(p, c, e.key);
+  }
+
+  const CombProblemData& data_;
+  const CombParams& params_;
+  const Quadrature& quadrature_;
+  std::vector<Entry> rows_;
+};
+
+// One row's residuals, in units of the noise scale: parameter blocks
+// (m, λ, δ), (ln σ), (q) and the row's (c, A, b0, b1). Clipped bins give 0.
+// The row's shape comes from `shapes`.
+class RowCost : public ceres::CostFunction {
+ public:
+  RowCost(const Row* row, std::size_t index, double inv_scale, RowShapes* shapes,
+          double float_centre, double float_half)
+      : row_(row),
+        index_(index),
+        inv_scale_(inv_scale),
+        shapes_(shapes),
+        float_centre_(float_centre),
+        float_half_(float_half) {
+    set_num_residuals(static_cast<int>(row->bins.size()));
+    mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    Shared p;
+    p.m = parameters[0][0];
+    p.lambda = parameters[0][1];
+    p.delta = parameters[0][2];
+    p.log_sigma = parameters[1][0];
+    p.psf_l = parameters[2][0];
+    p.float_centre = float_centre_;
+    p.float_half = float_half_;
+    const double* own = parameters[3];
+    if (!RowShapes::Valid(p)) return false;
+    const std::vector<std::array<double, 6>>* grad_ptr = nullptr;
+    const std::vector<double>& shape =
+        shapes_->Shape(index_, p, own[0], jacobians != nullptr, &grad_ptr);
+    const std::vector<std::array<double, 6>>& grad = *grad_ptr;
+    const int n = static_cast<int>(shape.size());
+    for (int j = 0; j < n; ++j) {
+      const Bin& b = row_->bins[j];
+      residuals[j] =
+          b.valid ? (own[1] * shape[j] + own[2] + own[3] * b.from_mid - b.value) * inv_scale_ : 0.0;
+    }
+    if (jacobians == nullptr) return true;
+    for (int j = 0; j < n; ++j) {
+      const Bin& b = row_->bins[j];
+      const double a = b.valid ? own[1] * inv_scale_ : 0.0;
+      const double one = b.valid ? inv_scale_ : 0.0;
+      if (jacobians[0] != nullptr) {
+        jacobians[0][3 * j] = a * grad[j][0];
+        jacobians[0][3 * j + 1] = a * grad[j][1];
+        jacobians[0][3 * j + 2] = a * grad[j][4];
+      }
+      if (jacobians[1] != nullptr) jacobians[1][j] = a * grad[j][2];
+      if (jacobians[2] != nullptr) jacobians[2][j] = a * grad[j][5];
+      if (jacobians[3] != nullptr) {
+        jacobians[3][kOwn * j] = a * grad[j][3];
+        jacobians[3][kOwn * j + 1] = one * shape[j];
+        jacobians[3][kOwn * j + 2] = one;
+        jacobians[3][kOwn * j + 3] = one * b.from_mid;
+      }
+    }
+    return true;
+  }
+
+ private:
+  const Row* row_;
+  std::size_t index_;
+  double inv_scale_;
+  RowShapes* shapes_;
+  double float_centre_, float_half_;  // the floats that hide the comb (held)
+};
+
 // One residual block per row, over (m, λ, δ), ln σ, ℓ and its own; each
-// reads the fit's current quadrature through `quadrature`.
-void AddRowCosts(const CombProblemData& data, double scale, const Quadrature* quadrature,
-                 CombParams* params, ceres::Problem* problem) {
+// reads its shape from `shapes` (the problem's evaluation callback).
+void AddRowCosts(const CombProblemData& data, double scale, RowShapes* shapes, CombParams* params,
+                 ceres::Problem* problem) {
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
-    problem->AddResidualBlock(new RowCost(&data.rows[i], data.bin_px, data.in_pixel, 1.0 / scale,
-                                          quadrature, params->float_centre, params->float_half),
+    problem->AddResidualBlock(new RowCost(&data.rows[i], i, 1.0 / scale, shapes,
+                                          params->float_centre, params->float_half),
                               nullptr, params->shared, &params->log_sigma, &params->psf_l,
                               params->own[i].data());
   }
@@ -1319,8 +1411,11 @@ absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintMo
   params.float_centre = p.float_centre;
   params.float_half = p.float_half;
   Quadrature quadrature = Quadrature::kFull;
-  ceres::Problem problem;
-  AddRowCosts(data, scale, &quadrature, &params, &problem);
+  RowShapes shapes(data, params, quadrature);
+  ceres::Problem::Options problem_options;
+  problem_options.evaluation_callback = &shapes;
+  ceres::Problem problem(problem_options);
+  AddRowCosts(data, scale, &shapes, &params, &problem);
   CombFitResult result;
   const ceres::Solver::Summary summary =
       SolveComb(data, options, &problem, &quadrature, &params, &result.iterations, from == nullptr);
