@@ -633,18 +633,42 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
   return reading;
 }
 
+// What one photograph's glints gave, kept between readings of them
+// (ReadWavelength) for one set of peaks that differ only in how the split
+// was called (sawtooth or not): the lattice of glint lines and every comb
+// fit, each a pure function of the photograph, the peaks and its start,
+// so that a reading again reuses them rather than fitting them anew.
+struct GlintMemo {
+  struct Fit {
+    double start_mm = 0.0, max_slope = 0.0;
+    CombRows rows_in, rows_out;  // the rows it was given (none: chosen), and fitted
+    absl::StatusOr<CombFitResult> result;
+  };
+  std::optional<LatticeReading> lattice;
+  std::vector<Fit> fits;
+};
+
+bool SameRows(const CombRows& a, const CombRows& b) {
+  return a.rows == b.rows && a.phase_mm == b.phase_mm && a.thread == b.thread;
+}
+
 // Comb fits (glints/comb_fit.h) from starting periods in turn, the first
 // the fit confirms kept: it converged, explains `needed` of the rows'
 // variance, stays within `reach` of its start and 30 % of the profile's max
 // slope, and needs a lens blur the limbs could show.
 class CombFitter {
  public:
-  CombFitter(const Image& luminance, const CylinderGeometry& cylinder,
-             const Projection& projection, const ArcSignalOptions& wide,
-             const ArcSignals& wide_signals, const GlintModel& model,
-             const CombFitOptions& options)
-      : luminance_(luminance), cylinder_(cylinder), projection_(projection), wide_(wide),
-        wide_signals_(wide_signals), model_(model), options_(options) {}
+  CombFitter(const Image& luminance, const CylinderGeometry& cylinder, const Projection& projection,
+             const ArcSignalOptions& wide, const ArcSignals& wide_signals, const GlintModel& model,
+             const CombFitOptions& options, GlintMemo* memo)
+      : luminance_(luminance),
+        cylinder_(cylinder),
+        projection_(projection),
+        wide_(wide),
+        wide_signals_(wide_signals),
+        model_(model),
+        options_(options),
+        memo_(memo) {}
 
   // `period_needed` (at most `needed`): a fit that meets every test but
   // explains only this share is kept as period_only().
@@ -656,10 +680,24 @@ class CombFitter {
 
  private:
   // On `rows` when it holds any (phased anew at `start`), else on rows
-  // chosen for `start`, which it then holds.
+  // chosen for `start`, which it then holds; as the memo kept it, if it
+  // holds this fit.
   absl::StatusOr<CombFitResult> Fit(const GlintModel& model, double start, CombRows* rows) const {
-    return FitCombOverLobe(luminance_, cylinder_, projection_, wide_, wide_signals_, model, start,
-                           options_, rows);
+    for (const GlintMemo::Fit& f : memo_->fits) {
+      if (f.start_mm == start && f.max_slope == model.max_slope && SameRows(f.rows_in, *rows)) {
+        *rows = f.rows_out;
+        return f.result;
+      }
+    }
+    GlintMemo::Fit f;
+    f.start_mm = start;
+    f.max_slope = model.max_slope;
+    f.rows_in = *rows;
+    f.result = FitCombOverLobe(luminance_, cylinder_, projection_, wide_, wide_signals_, model,
+                               start, options_, rows);
+    f.rows_out = *rows;
+    memo_->fits.push_back(f);
+    return f.result;
   }
   // The lens PSF the comb fit needs must be one the limbs could show
   // (CombPsfPlausible).
@@ -678,6 +716,7 @@ class CombFitter {
   const ArcSignals& wide_signals_;
   const GlintModel& model_;
   const CombFitOptions& options_;
+  GlintMemo* memo_;
   std::string failure_;
   std::optional<CombFitResult> period_only_;
 };
@@ -918,7 +957,9 @@ struct WavelengthReading {
 // The glints' reading of the period for a split read as a sawtooth or not
 // (`sawtooth_read`): the lattice of glint lines, then comb fits from its
 // pitch or from the glints' count. A pure function of the photograph and
-// the peaks, so that it can run beside the lobe fits.
+// the peaks, so that it can run beside the lobe fits; `memo` (kept for one
+// photograph and its peaks) spares a second reading the lattice and the
+// fits the first made.
 //
 // A sawtooth mirrors only at the two caustic azimuths, so its glints do
 // not repeat along the arc. A split is called a sawtooth from the low
@@ -930,7 +971,7 @@ struct WavelengthReading {
 WavelengthReading ReadWavelength(const Image& luminance, const CylinderGeometry& cylinder,
                                  const Acquisition& acquisition, const PeakPickingResult& peaks,
                                  double pixel_noise, const EstimateOptions& options,
-                                 bool sawtooth_read) {
+                                 bool sawtooth_read, GlintMemo* memo) {
   WavelengthReading reading;
   const Projection projection = acquisition.GetProjection();
   GlintModel model;
@@ -941,8 +982,11 @@ WavelengthReading ReadWavelength(const Image& luminance, const CylinderGeometry&
   model.mm_per_px = projection.radius_mm / cylinder.radius_px;
   model.pixel_noise = pixel_noise;
   model.lens_blur_px = cylinder.lens_blur_px;
-  reading.lattice = ReadAxialLattice(luminance, cylinder, projection, acquisition.phase_angle_rad,
+  if (!memo->lattice) {
+    memo->lattice = ReadAxialLattice(luminance, cylinder, projection, acquisition.phase_angle_rad,
                                      peaks, model, options);
+  }
+  reading.lattice = *memo->lattice;
   const LatticeReading& lattice = reading.lattice;
   const double half = 0.5 * peaks.spacing_rad;
   const double limit = projection.VisibleLimbRad() - 3.0 * kDeg;
@@ -962,7 +1006,7 @@ WavelengthReading ReadWavelength(const Image& luminance, const CylinderGeometry&
                    : absl::StatusOr<ArcSignals>(signals.status());
   std::optional<CombFitter> comb;
   if (wide_signals.ok()) {
-    comb.emplace(luminance, cylinder, projection, wide, *wide_signals, model, options.comb);
+    comb.emplace(luminance, cylinder, projection, wide, *wide_signals, model, options.comb, memo);
   }
   // The lattice alone gives the period when it is made of lines along the
   // axis (the axial threads, λ/2 apart; across the lobe, more clearly so)
@@ -1430,10 +1474,11 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
   const bool predicted_sawtooth = estimate.model == ProfileModel::kSawtooth;
   const double pixel_noise = estimate.profile.background_noise;
   std::optional<WavelengthReading> early_glints;
-  auto read_glints = [&luminance, &cylinder, &acquisition, &peaks, pixel_noise,
-                      &options](bool sawtooth_read) {
+  GlintMemo memo;
+  auto read_glints = [&luminance, &cylinder, &acquisition, &peaks, pixel_noise, &options,
+                      &memo](bool sawtooth_read) {
     return ReadWavelength(luminance, *cylinder, acquisition, *peaks, pixel_noise, options,
-                          sawtooth_read);
+                          sawtooth_read, &memo);
   };
   // `accurate` fits the models to the profile always; `balanced` where peak
   // picking read a split, whose model and numbers the fits of the whole lobe
