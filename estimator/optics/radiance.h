@@ -58,13 +58,20 @@ T GaussianDensity(const T& x, const T& sigma) {
 }
 
 // Number of quadrature nodes over one period of a sinusoid of max slope m,
-// blurred by sigma: the node spacing mapped to tilt (at most m per radian of
-// phase) stays below a third of sigma, so the sum is accurate to well below
-// a percent. Bounded to keep the cost predictable.
+// blurred by sigma: the node spacing h mapped to tilt (at most m per radian
+// of phase) stays below sigma/kSinusoidNodesPerBlur. The integrand is
+// smooth and periodic in the phase, its narrowest feature a Gaussian
+// sigma/m wide, so the midpoint rule's error is its aliasing,
+// exp(−2π²(sigma/(m·h))²) relative: 5e-13 at 1.2 nodes per sigma
+// (SinusoidQuadratureIsExact measures it). Three nodes per sigma, used
+// before, put it at 1e-77, and the lobe fits' own functions took a third
+// more of the CPU (perf samples over the shared photographs' PNGs: 2990
+// against 2231). Bounded to keep the cost predictable.
+inline constexpr double kSinusoidNodesPerBlur = 1.2;
 inline int SinusoidQuadratureNodes(double max_slope, double blur_rad) {
   const double kPi = 3.14159265358979323846;
-  const double wanted = 3.0 * 2.0 * kPi * std::fabs(max_slope) /
-                        std::max(blur_rad, 1e-6);
+  const double wanted =
+      kSinusoidNodesPerBlur * 2.0 * kPi * std::fabs(max_slope) / std::max(blur_rad, 1e-6);
   return static_cast<int>(std::clamp(std::ceil(wanted), 64.0, 8192.0));
 }
 
