@@ -120,12 +120,15 @@ double AlignedShare(const std::vector<std::vector<std::vector<float>>>& arcs, do
     if (rows.size() < 8) continue;
     const int size = cv::getOptimalDFTSize(static_cast<int>(rows.size()));
     cv::Mat amplitude = cv::Mat::zeros(1, size, CV_64FC2);
+    // The frequency's phasors, the same for every row of the arc.
+    std::vector<std::complex<double>> phasor;
     for (std::size_t r = 0; r < rows.size(); ++r) {
       std::complex<double> at = 0.0;
       const std::vector<float>& x = rows[r];
-      for (std::size_t k = 0; k < x.size(); ++k) {
-        at += double(x[k]) * std::polar(1.0, -2.0 * M_PI * cycles * k);
+      for (std::size_t k = phasor.size(); k < x.size(); ++k) {
+        phasor.push_back(std::polar(1.0, -2.0 * M_PI * cycles * k));
       }
+      for (std::size_t k = 0; k < x.size(); ++k) at += double(x[k]) * phasor[k];
       amplitude.at<cv::Vec2d>(0, static_cast<int>(r)) = {at.real(), at.imag()};
     }
     cv::Mat along;
