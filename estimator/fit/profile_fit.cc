@@ -69,12 +69,25 @@ bool Stalled(const ceres::Solver::Summary& summary) {
 // (the smoothing, the floor, the lens and pixel in azimuth there) add in
 // quadrature (all Gaussian).
 struct ProfileSampleCost {
-  ProfileSampleCost(ProfileModel model, double phi, double value, double sigma,
-                    double alpha, double fixed_blur, double sharpest_blur, double phi_center,
-                    double view, bool censored)
-      : model_(model), phi_(phi), value_(value), sigma_(sigma), alpha_(alpha),
-        fixed_blur_(fixed_blur), sharpest_blur_(sharpest_blur), phi_center_(phi_center),
-        view_(view), censored_(censored) {}
+  ProfileSampleCost(ProfileModel model, double phi, double value, double sigma, double alpha,
+                    double fixed_blur, double sharpest_blur, double phi_center, double view,
+                    bool censored)
+      : model_(model),
+        phi_(phi),
+        value_(value),
+        sigma_(sigma),
+        alpha_(alpha),
+        fixed_blur_(fixed_blur),
+        sharpest_blur_(sharpest_blur),
+        phi_center_(phi_center),
+        view_(view),
+        censored_(censored),
+        // The scatter's and the dome's shapes at this bin, fixed by its
+        // azimuth (computed once: every evaluation of every fit needs them).
+        scatter_shape_(std::cos(phi - alpha) > 0.0
+                           ? std::cos(alpha / 2.0) / std::max(std::cos(phi), kMinCosAzimuth)
+                           : 0.0),
+        dome_shape_(std::cos(phi - phi_center) - 1.0) {}
 
   template <typename T>
   bool operator()(const T* slope, const T* p, const T* corner, T* residual) const {
@@ -93,11 +106,9 @@ struct ProfileSampleCost {
     rp.scale = p[2];
     const T specular = SpecularRadiance(rp, T(phi_));
     T scatter(0.0);
-    if (std::cos(phi_ - alpha_) > 0.0) {
-      scatter = p[5] * T(std::cos(alpha_ / 2.0) / std::max(std::cos(phi_), kMinCosAzimuth));
-    }
-    const T model = specular + p[3] + p[4] * T(phi_ - phi_center_) +
-                    p[6] * T(std::cos(phi_ - phi_center_) - 1.0) + scatter;
+    if (scatter_shape_ != 0.0) scatter = p[5] * T(scatter_shape_);
+    const T model =
+        specular + p[3] + p[4] * T(phi_ - phi_center_) + p[6] * T(dome_shape_) + scatter;
     residual[0] = (model - T(value_)) / T(sigma_);
     // A censored bin's value is a lower bound: a model above it is as good
     // as the bound itself.
@@ -116,6 +127,7 @@ struct ProfileSampleCost {
   ProfileModel model_;
   double phi_, value_, sigma_, alpha_, fixed_blur_, sharpest_blur_, phi_center_, view_;
   bool censored_;
+  double scatter_shape_, dome_shape_;
 };
 
 // Each bin's mean with its clipped pixels counted at the clip level, where
