@@ -633,11 +633,11 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
   return reading;
 }
 
-// What one photograph's glints gave, kept between readings of them
-// (ReadWavelength) for one set of peaks that differ only in how the split
-// was called (sawtooth or not): the lattice of glint lines and every comb
-// fit, each a pure function of the photograph, the peaks and its start,
-// so that a reading again reuses them rather than fitting them anew.
+// What one photograph's glints gave, kept between its readings
+// (ReadWavelength) from one set of peaks, which differ only in how the
+// split was called (sawtooth or not): the lattice of glint lines and every
+// comb fit, each a pure function of the photograph, the peaks and its
+// start, so that a second reading reuses them rather than fitting anew.
 struct GlintMemo {
   struct Fit {
     double start_mm = 0.0, max_slope = 0.0;
@@ -1051,10 +1051,11 @@ WavelengthReading ReadWavelength(const Image& luminance, const CylinderGeometry&
                                     &reading.period_failure);
   }
   // A whole comb from the glints' count stands over a comb from the
-  // lattice that gave the period alone: it passed the stricter test. A comb
-  // at twice the period of a plain weave's relief explained 57-71 % of the
-  // rows of a lens-blurred render (17 px per period), as the noise fell,
-  // where the count's period gave a comb that explained 95 %.
+  // lattice that gave the period alone: it passed the stricter test. On a
+  // lens-blurred render (17 px per period) a comb at twice the period of
+  // the weave's relief explained 57 % or 71 % of the rows, as its start
+  // moved by rounding, where the count's period gave a comb that explained
+  // 95 %.
   if (best) reading.period_only.reset();
   if (!best) {
     reading.comb_failure = comb ? comb->failure() : std::string(wide_signals.status().message());
