@@ -929,15 +929,22 @@ std::optional<CombSolution> BestFloats(const CombProblemData& data, const CombSo
   return best;
 }
 
-// Noise scale: the median absolute residual at the start, as a σ, but no
-// smaller than the pixel noise averaged over a bin.
-double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams& own,
-                  double pixel_noise) {
+// Every row's shape at `p` with all pieces, rows in parallel.
+std::vector<std::vector<double>> FullShapes(const CombProblemData& data, const Shared& p,
+                                            const OwnParams& own) {
   std::vector<std::vector<double>> shapes(data.rows.size());
   ForEachRow(data.rows.size(), [&](std::size_t i) {
     shapes[i] = RowShape(data.rows[i], Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0],
                          nullptr);
   });
+  return shapes;
+}
+
+// Noise scale: the median absolute residual at the start, as a σ, but no
+// smaller than the pixel noise averaged over a bin.
+double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams& own,
+                  double pixel_noise) {
+  const std::vector<std::vector<double>> shapes = FullShapes(data, p, own);
   std::vector<double> abs_res;
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     const Row& row = data.rows[i];
@@ -956,11 +963,7 @@ double NoiseScale(const CombProblemData& data, const Shared& p, const OwnParams&
 // fitted); `rss` gets the residual sum of squares.
 double ExplainedShare(const CombProblemData& data, const Shared& p, const OwnParams& own,
                       double* rss_out) {
-  std::vector<std::vector<double>> shapes(data.rows.size());
-  ForEachRow(data.rows.size(), [&](std::size_t i) {
-    shapes[i] = RowShape(data.rows[i], Quadrature::kFull, data.bin_px, data.in_pixel, p, own[i][0],
-                         nullptr);
-  });
+  const std::vector<std::vector<double>> shapes = FullShapes(data, p, own);
   double rss = 0.0, base = 0.0;
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
     const Row& row = data.rows[i];
