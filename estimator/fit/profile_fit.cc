@@ -68,7 +68,17 @@ bool Stalled(const ceres::Solver::Summary& summary) {
 // model is smoothed like the data: the fitted blur and the bin's fixed blur
 // (the smoothing, the floor, the lens and pixel in azimuth there) add in
 // quadrature (all Gaussian).
-struct ProfileSampleCost {
+//
+// Its derivatives: the specular lobe's by automatic differentiation over
+// the parameters it depends on (the mirror, the blur and the scale; the max
+// slope but for the smooth model, the corners for the sawtooth's alone:
+// Specular), the background's, scatter's and dome's, linear, by hand.
+// Differentiating all nine parameters through the lobe (AutoDiffCostFunction)
+// carried derivatives that are zero or constant through every operation:
+// the six fits of a sinusoid's lobe took 121 ms where they now take 104
+// (BM_FitProfileModels). The values and derivatives agree to rounding.
+class ProfileSampleCost : public ceres::SizedCostFunction<1, 1, kNuisance, 1> {
+ public:
   ProfileSampleCost(ProfileModel model, double phi, double value, double sigma, double alpha,
                     double fixed_blur, double sharpest_blur, double phi_center, double view,
                     bool censored)
@@ -76,7 +86,6 @@ struct ProfileSampleCost {
         phi_(phi),
         value_(value),
         sigma_(sigma),
-        alpha_(alpha),
         fixed_blur_(fixed_blur),
         sharpest_blur_(sharpest_blur),
         phi_center_(phi_center),
@@ -89,43 +98,105 @@ struct ProfileSampleCost {
                            : 0.0),
         dome_shape_(std::cos(phi - phi_center) - 1.0) {}
 
-  template <typename T>
-  bool operator()(const T* slope, const T* p, const T* corner, T* residual) const {
-    using std::cos;
-    using std::sqrt;
-    RadianceParams<T> rp;
-    rp.model = model_;
-    rp.max_slope = slope[0];
-    rp.corner_share = corner[0];
-    // The facet normal that mirrors the light into the camera is (α + v)/2
-    // (DESIGN.md §2): p[0] stands for α/2, v is this sample's view angle.
-    rp.mirror_rad = p[0] + T(0.5 * view_);
-    rp.blur_rad = sqrt(p[1] * p[1] + T(fixed_blur_ * fixed_blur_));
-    // Every bin's sinusoid quadrature sized for the sharpest bin's blur.
-    rp.quadrature_blur_rad = std::hypot(ScalarValue(p[1]), sharpest_blur_);
-    rp.scale = p[2];
-    const T specular = SpecularRadiance(rp, T(phi_));
-    T scatter(0.0);
-    if (scatter_shape_ != 0.0) scatter = p[5] * T(scatter_shape_);
-    const T model =
-        specular + p[3] + p[4] * T(phi_ - phi_center_) + p[6] * T(dome_shape_) + scatter;
-    residual[0] = (model - T(value_)) / T(sigma_);
+  // The residual at (slope, p, corner), without derivatives.
+  double Residual(const double* slope, const double* p, const double* corner) const {
+    RadianceParams<double> rp = Lobe<double>(slope[0], p[0], p[1], p[2], corner[0], p[1]);
+    const double residual = (Model(SpecularRadiance(rp, phi_), p) - value_) / sigma_;
+    return censored_ && residual > 0.0 ? 0.0 : residual;
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const double* slope = parameters[0];
+    const double* p = parameters[1];
+    const double* corner = parameters[2];
+    double d[kSlots];
+    double specular;
+    switch (model_) {
+      case ProfileModel::kSmooth:
+        specular = Specular<3>(slope, p, corner, d);
+        break;
+      case ProfileModel::kSinusoid:
+        specular = Specular<4>(slope, p, corner, d);
+        break;
+      default:
+        specular = Specular<5>(slope, p, corner, d);
+        break;
+    }
+    // The quotient as a Jet takes it (times the inverse), as before.
+    const double residual = (Model(specular, p) - value_) * (1.0 / sigma_);
     // A censored bin's value is a lower bound: a model above it is as good
-    // as the bound itself.
-    if (censored_ && ScalarValue(residual[0]) > 0.0) residual[0] = T(0.0);
+    // as the bound itself, and flat there.
+    const bool above_bound = censored_ && residual > 0.0;
+    residuals[0] = above_bound ? 0.0 : residual;
+    if (jacobians == nullptr) return true;
+    const double per = above_bound ? 0.0 : 1.0 / sigma_;
+    if (jacobians[0] != nullptr) jacobians[0][0] = d[kSlopeSlot] * per;
+    if (jacobians[1] != nullptr) {
+      double* j = jacobians[1];
+      j[0] = d[kMirrorSlot] * per;
+      j[1] = d[kBlurSlot] * per;
+      j[2] = d[kScaleSlot] * per;
+      j[3] = per;
+      j[4] = (phi_ - phi_center_) * per;
+      j[5] = scatter_shape_ * per;
+      j[6] = dome_shape_ * per;
+    }
+    if (jacobians[2] != nullptr) jacobians[2][0] = d[kCornerSlot] * per;
     return true;
   }
 
-  static ceres::CostFunction* Create(ProfileModel model, double phi, double value, double sigma,
-                                     double alpha, double fixed_blur, double sharpest_blur,
-                                     double phi_center, double view, bool censored) {
-    return new ceres::AutoDiffCostFunction<ProfileSampleCost, 1, 1, kNuisance, 1>(
-        new ProfileSampleCost(model, phi, value, sigma, alpha, fixed_blur, sharpest_blur,
-                              phi_center, view, censored));
+ private:
+  // The specular lobe's parameters in the order of their Jet slots: a
+  // model differentiates the first N of them (the smooth model's lobe does
+  // not depend on the max slope, nor any but the sawtooth's on corners).
+  enum Slot { kMirrorSlot, kBlurSlot, kScaleSlot, kSlopeSlot, kCornerSlot, kSlots };
+
+  // The lobe's parameters for SpecularRadiance, in T (p1 the fitted blur,
+  // whose value sizes the sinusoid's quadrature).
+  template <typename T>
+  RadianceParams<T> Lobe(const T& slope, const T& p0, const T& p1, const T& p2, const T& corner,
+                         double p1_value) const {
+    using std::sqrt;
+    RadianceParams<T> rp;
+    rp.model = model_;
+    rp.max_slope = slope;
+    rp.corner_share = corner;
+    // The facet normal that mirrors the light into the camera is (α + v)/2
+    // (DESIGN.md §2): p[0] stands for α/2, v is this sample's view angle.
+    rp.mirror_rad = p0 + T(0.5 * view_);
+    rp.blur_rad = sqrt(p1 * p1 + T(fixed_blur_ * fixed_blur_));
+    // Every bin's sinusoid quadrature sized for the sharpest bin's blur.
+    rp.quadrature_blur_rad = std::hypot(p1_value, sharpest_blur_);
+    rp.scale = p2;
+    return rp;
+  }
+
+  // The specular lobe at this bin and its derivatives by the slots below N
+  // (the rest 0) into d.
+  template <int N>
+  double Specular(const double* slope, const double* p, const double* corner,
+                  double d[kSlots]) const {
+    using J = ceres::Jet<double, N>;
+    auto variable = [](double x, int slot) { return slot < N ? J(x, slot) : J(x); };
+    const RadianceParams<J> rp = Lobe<J>(
+        variable(slope[0], kSlopeSlot), variable(p[0], kMirrorSlot), variable(p[1], kBlurSlot),
+        variable(p[2], kScaleSlot), variable(corner[0], kCornerSlot), p[1]);
+    const J specular = SpecularRadiance(rp, J(phi_));
+    for (int k = 0; k < kSlots; ++k) d[k] = k < N ? specular.v[k] : 0.0;
+    return specular.a;
+  }
+
+  // The lobe plus the background's level and slope, the dome and the
+  // grazing scatter (linear in their parameters).
+  double Model(double specular, const double* p) const {
+    double scatter = 0.0;
+    if (scatter_shape_ != 0.0) scatter = p[5] * scatter_shape_;
+    return specular + p[3] + p[4] * (phi_ - phi_center_) + p[6] * dome_shape_ + scatter;
   }
 
   ProfileModel model_;
-  double phi_, value_, sigma_, alpha_, fixed_blur_, sharpest_blur_, phi_center_, view_;
+  double phi_, value_, sigma_, fixed_blur_, sharpest_blur_, phi_center_, view_;
   bool censored_;
   double scatter_shape_, dome_shape_;
 };
@@ -319,10 +390,10 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
     ceres::Problem problem;
     for (int i : used) {
       problem.AddResidualBlock(
-          ProfileSampleCost::Create(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
-                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]),
-                                    sharpest_blur, mirror0,
-                                    ViewAngleRad(profile.azimuth_rad[i], projection), censored[i]),
+          new ProfileSampleCost(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
+                                phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]),
+                                sharpest_blur, mirror0,
+                                ViewAngleRad(profile.azimuth_rad[i], projection), censored[i]),
           new ceres::HuberLoss(3.0), slope, p, corner);
     }
     if (rounded) {
@@ -365,8 +436,7 @@ absl::StatusOr<ProfileFitResult> FitProfileModels(const Profile& profile,
       const ProfileSampleCost cost(model, profile.azimuth_rad[i], smoothed[i], sigma_of(i),
                                    phase_angle_rad, fixed_blur_of(profile.azimuth_rad[i]),
                                    sharpest_blur, mirror0, view, censored[i]);
-      double r = 0.0;
-      cost(slope, p, corner, &r);
+      const double r = cost.Residual(slope, p, corner);
       fit.curve_azimuth_rad.push_back(profile.azimuth_rad[i]);
       fit.curve.push_back(smoothed[i] + r * sigma_of(i));
       residuals.push_back(r);
