@@ -123,7 +123,8 @@ class ProfileSampleCost : public ceres::SizedCostFunction<1, 1, kNuisance, 1> {
         specular = Specular<5>(slope, p, corner, d);
         break;
     }
-    // The quotient as a Jet takes it (times the inverse), as before.
+    // Divided as a Jet divides (times the inverse), as the automatic
+    // differentiation did.
     const double residual = (Model(specular, p) - value_) * (1.0 / sigma_);
     // A censored bin's value is a lower bound: a model above it is as good
     // as the bound itself, and flat there.

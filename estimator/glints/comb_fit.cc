@@ -1225,8 +1225,8 @@ class SettledAnswer : public ceres::IterationCallback {
 // The polish on all the pieces, after a main solve on fewer (kMain) that
 // ended at main_cost. It runs to a tight tolerance: stopped at a relative
 // cost change of 1e-5 (which noise alone makes the cost's scale) the max
-// slope still crawled. Over 8 noise draws of each
-// fixture scene (scripts/noise_draws.py) its spread fell 2-30 fold to the
+// slope still crawled. Over 8 noise draws of each fixture scene
+// (scripts/noise_draws.py) its spread fell 2-30 fold to the
 // size the cluster-robust errors give (sin_m020_p60: 1.0 % to 0.03 %), and
 // a fixture whose answer hung on its start (silk_m10_srgb) came in (+0.18
 // to +0.06 deg). It ends sooner once the answer has settled (SettledAnswer,

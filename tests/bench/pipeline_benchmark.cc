@@ -94,7 +94,7 @@ void BM_PickPeaks(benchmark::State& state) {
 
 // The lobe fits (three models from two starting blurs) one after another,
 // from peak picking's slope and smoothing, on a sinusoid of the size of a
-// lab photograph (1280×960, m = 0.47 at α = 60°, unclipped).
+// lab photograph (1280×960, m = 0.47 at α = 60°).
 void BM_FitProfileModels(benchmark::State& state) {
   static const auto* lobe = [] {
     RenderScene scene;
