@@ -633,6 +633,9 @@ struct BandLimbs {
   // step fired; the limb lies at or beyond it.
   double left_fired = std::numeric_limits<double>::quiet_NaN();
   double right_fired = std::numeric_limits<double>::quiet_NaN();
+  // Left out because a limb stood at the first column searched: the body
+  // reaches into a side strip.
+  bool at_strip = false;
 };
 
 // Sub-pixel position where a band profile crosses `level` between columns
@@ -705,10 +708,8 @@ BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double thr
   // A limb found at the first column searched lies in (or beyond) the side
   // strip taken as background: its position is not measured, and the
   // band is left out.
-  if (left < 0 || right < 0 || right - left < min_separation || left == side ||
-      right == w - 1 - side) {
-    return b;
-  }
+  b.at_strip = (left == side || right == w - 1 - side) && left >= 0 && right >= 0;
+  if (left < 0 || right < 0 || right - left < min_separation || b.at_strip) return b;
   // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
   // step's half-level crossing in place) crosses half-way between the
   // background and the surface level just inside the limb. The first
@@ -2976,6 +2977,7 @@ struct BandScan {
   std::vector<int> band_last;
   std::vector<double> mean_profile;   // sums over mean_rows rows
   int mean_rows = 0;
+  int at_strip = 0;  // bands left out for a limb in a side strip
 };
 BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
                    const SideStrips& strips, const CylinderDetectionOptions& options) {
@@ -3041,7 +3043,10 @@ BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
         profile, side, threshold, static_cast<int>(2 * options.min_radius_px),
         glints_reach_limb && light < 0, glints_reach_limb && light > 0, strips.left_background,
         strips.right_background);
-    if (!limbs.found) continue;
+    if (!limbs.found) {
+      scan.at_strip += limbs.at_strip ? 1 : 0;
+      continue;
+    }
     const double row = 0.5 * (y0 + y1 - 1);
     const double band_radius = 0.5 * (limbs.right_cross - limbs.left_cross);
     bands_seen.push_back({row, limbs.left_cross, limbs.right_cross, band_radius, profile,
@@ -3178,9 +3183,9 @@ void SetFromLines(const Line& left, const Line& right, const PlacedLimbs& placed
 // alone at any phase angle.
 absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
                                                       const CylinderDetectionOptions& options,
-                                                      double side_fraction,
-                                                      bool shadow_is_limb,
-                                                      DetectionTrace* trace) {
+                                                      double side_fraction, bool shadow_is_limb,
+                                                      DetectionTrace* trace,
+                                                      bool* body_in_strips = nullptr) {
   if (luminance.channels != 1) {
     return absl::InvalidArgumentError("DetectCylinder needs a one-channel image");
   }
@@ -3209,6 +3214,11 @@ absl::StatusOr<CylinderGeometry> DetectWithSideStrips(const Image& luminance,
   const double background = strips.background;
   const double noise = strips.noise;
   BandScan scan = ScanBands(luminance, region, bands, strips, options);
+  // More bands saw the body reach into a side strip than found both its
+  // limbs: the strips are not background over most of the cylinder's rows.
+  if (body_in_strips != nullptr) {
+    *body_in_strips = scan.at_strip > static_cast<int>(scan.bands_seen.size());
+  }
   std::vector<BandEdges>& bands_seen = scan.bands_seen;
   const std::vector<int>& band_first = scan.band_first;
   const std::vector<int>& band_last = scan.band_last;
@@ -3368,9 +3378,9 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(const Image& luminance,
   // 100°, lens blur 2 px, 640×480, noise-free: its lit limb 3.4 px out,
   // then within 0.1 px.)
   // Each attempt's trace, when asked for one; the returned result's is kept.
-  auto detect = [&](double side_fraction, DetectionTrace* seen) {
+  auto detect = [&](double side_fraction, DetectionTrace* seen, bool* body_in_strips) {
     absl::StatusOr<CylinderGeometry> first =
-        DetectWithSideStrips(luminance, options, side_fraction, false, seen);
+        DetectWithSideStrips(luminance, options, side_fraction, false, seen, body_in_strips);
     if (first.ok() && first->unused_blur_px > 0.0 && first->left_observed &&
         first->right_observed) {
       DetectionTrace again_seen;
@@ -3383,24 +3393,30 @@ absl::StatusOr<CylinderGeometry> DetectCylinder(const Image& luminance,
     }
     return first;
   };
-  absl::StatusOr<CylinderGeometry> found = detect(options.background_fraction, trace);
+  bool body_in_strips = false;
+  absl::StatusOr<CylinderGeometry> found =
+      detect(options.background_fraction, trace, &body_in_strips);
   // A cylinder that fills the frame has a limb inside the side strips: the
   // bands are searched from the strips inward and skip it (limbs 11.5 px
   // from the edge of a 320 px image, 21 px of a 640 px one, were "no
   // cylinder"). Then the strips are narrowed to kNarrowSideFraction, at
-  // least kNarrowSidePx.
+  // least kNarrowSidePx. So they are too where a refusal rests on the
+  // minority of the bands, the rest having seen the body reach into a strip
+  // (a limb at a strip's inner edge left every band of the cylinder's rows
+  // out, and a mount narrower than the cylinder, above and below it, gave
+  // the only edges).
   constexpr double kNarrowSideFraction = 0.01;
   constexpr int kNarrowSidePx = 3;
   const int width = options.region.IsEmpty() ? luminance.width : options.region.width;
   const double narrow =
       std::max(kNarrowSideFraction, kNarrowSidePx / std::max(1.0, static_cast<double>(width)));
   if (found.ok() || narrow >= options.background_fraction ||
-      !absl::StartsWith(found.status().message(), kTooFewLimbs)) {
+      !(absl::StartsWith(found.status().message(), kTooFewLimbs) || body_in_strips)) {
     return found;
   }
   DetectionTrace narrowed_seen;
   absl::StatusOr<CylinderGeometry> narrowed =
-      detect(narrow, trace != nullptr ? &narrowed_seen : nullptr);
+      detect(narrow, trace != nullptr ? &narrowed_seen : nullptr, nullptr);
   if (narrowed.ok() && trace != nullptr) *trace = std::move(narrowed_seen);
   return narrowed.ok() ? narrowed : found;
 }

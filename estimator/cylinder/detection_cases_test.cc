@@ -894,6 +894,33 @@ TEST(DetectionCasesTest, ABodyAtTheBackdropsLevelUnderAGradientKeepsItsLitLimb) 
   ExpectBothLimbsSeenWithin(scene, 1.0, 1.0);
 }
 
+// A limb just inside the side strip's inner edge (4 % of the width) leaves
+// every band of the cylinder's rows out (its limb is not measured there),
+// and a mount narrower than the cylinder, above and below it, gave the only
+// bands with two edges: the mount was refused as a cylinder and so was the
+// photograph. More bands saw the body reach into a strip than found two
+// limbs, so the strips are narrowed and the cylinder found.
+TEST(DetectionCasesTest, ALimbAtTheSideStripsEdgeIsFoundBesideAMount) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 512;
+  scene.height_px = 384;
+  scene.samples_per_pixel = 2;
+  scene.radius_px = 227.0;
+  scene.center_x_px = 19.9 + scene.radius_px;  // the strip is columns 0-19
+  scene.top_row_px = 51;
+  scene.bottom_row_px = 336;
+  scene.phase_angle_deg = 88.75;
+  scene.exposure = 0.0105;
+  scene.diffuse = 0.054;
+  scene.ambient = 0.0238;
+  scene.background = 0.0283;
+  scene.mount_level = 0.08;
+  scene.mount_half_width = 0.82;
+  scene.stray_light = 0.0433;
+  scene.seed = 108;
+  ExpectBothLimbsSeenWithin(scene, 1.0, 1.0);
+}
+
 // A glossy body as dark and as smooth as the backdrop shows only its
 // glints: edges found on the outermost glints would place a cylinder that
 // is not there, and the photograph is refused.
