@@ -79,27 +79,44 @@ std::vector<float> ClampedRow(const ArcSignals& signals, int row, double noise, 
   return x;
 }
 
+// The Hann window over n samples (HannWeight), computed once per length.
+const std::vector<double>& HannWindow(int n) {
+  thread_local std::vector<double> window;
+  if (static_cast<int>(window.size()) != n) {
+    window.resize(n);
+    for (int k = 0; k < n; ++k) window[k] = HannWeight(k, n);
+  }
+  return window;
+}
+
 // Samples [lo, hi) of a clamped row under a Hann window of their own.
 std::vector<float> Windowed(const std::vector<float>& z, int lo, int hi) {
   const int n = hi - lo;
+  const std::vector<double>& w = HannWindow(n);
   std::vector<float> x(n);
-  for (int k = 0; k < n; ++k) {
-    x[k] = static_cast<float>(z[lo + k] * HannWeight(k, n));
-  }
+  for (int k = 0; k < n; ++k) x[k] = static_cast<float>(z[lo + k] * w[k]);
   return x;
 }
 
-// The power spectrum of a windowed row zero-padded to `size`, bins 0..size/2.
+// The power spectrum of a windowed row zero-padded to `size`, bins 0..size/2:
+// OpenCV's real-input transform, its spectrum packed (CCS: the real parts of
+// bins 0 and size/2 alone, then each bin's real and imaginary parts).
 std::vector<double> PowerOf(const std::vector<float>& row, int size) {
-  cv::Mat in = cv::Mat::zeros(1, size, CV_32F);
-  std::copy(row.begin(), row.end(), in.ptr<float>());
-  cv::Mat out;
-  cv::dft(in, out, cv::DFT_COMPLEX_OUTPUT);
+  thread_local cv::Mat in;
+  thread_local cv::Mat out;
+  in.create(1, size, CV_32F);
+  float* x = in.ptr<float>();
+  std::copy(row.begin(), row.end(), x);
+  std::fill(x + row.size(), x + size, 0.0f);
+  cv::dft(in, out);
+  const float* c = out.ptr<float>();
   std::vector<double> power(size / 2 + 1);
-  const cv::Vec2f* c = out.ptr<cv::Vec2f>();
-  for (int k = 0; k <= size / 2; ++k) {
-    power[k] = double(c[k][0]) * c[k][0] + double(c[k][1]) * c[k][1];
+  power[0] = double(c[0]) * c[0];
+  const int pairs = (size - 1) / 2;  // bins 1..pairs as (re, im) at 2k-1, 2k
+  for (int k = 1; k <= pairs; ++k) {
+    power[k] = double(c[2 * k - 1]) * c[2 * k - 1] + double(c[2 * k]) * c[2 * k];
   }
+  if (size % 2 == 0) power[size / 2] = double(c[size - 1]) * c[size - 1];
   return power;
 }
 
