@@ -4,14 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <future>
 #include <limits>
 #include <memory>
 #include <vector>
 
 #include "absl/status/status.h"
-#include "estimator/stats/smooth.h"
 #include "absl/strings/str_cat.h"
+#include "estimator/stats/smooth.h"
 
 namespace weavefit {
 namespace {
@@ -105,12 +106,46 @@ class ProfileSampleCost : public ceres::SizedCostFunction<1, 1, kNuisance, 1> {
     return censored_ && residual > 0.0 ? 0.0 : residual;
   }
 
+  // With bounds on its parameters, Ceres evaluates each trust-region step's
+  // end three times over: with the Jacobian in its line search, without it
+  // as the candidate, and with it again once the step is taken. So each
+  // sample keeps its last point's residual and derivatives (every
+  // evaluation computes both) and answers again from them: the same
+  // numbers, a third of the work.
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const double* slope = parameters[0];
     const double* p = parameters[1];
     const double* corner = parameters[2];
-    double d[kSlots];
+    if (!last_.AtPoint(slope, p, corner)) Compute(slope, p, corner);
+    residuals[0] = last_.residual;
+    if (jacobians == nullptr) return true;
+    if (jacobians[0] != nullptr) jacobians[0][0] = last_.jacobian[0];
+    if (jacobians[1] != nullptr) {
+      std::copy(last_.jacobian + 1, last_.jacobian + 1 + kNuisance, jacobians[1]);
+    }
+    if (jacobians[2] != nullptr) jacobians[2][0] = last_.jacobian[1 + kNuisance];
+    return true;
+  }
+
+ private:
+  // The last point evaluated (slope, the nuisance parameters, corner) and
+  // its residual and derivatives, in that order of parameters.
+  struct Evaluated {
+    bool valid = false;
+    double point[kNuisance + 2];
+    double residual = 0.0;
+    double jacobian[kNuisance + 2];
+    // Bit for bit (−0 is not +0 to every function of it).
+    bool AtPoint(const double* slope, const double* p, const double* corner) const {
+      return valid && std::memcmp(point, slope, sizeof(double)) == 0 &&
+             std::memcmp(point + 1, p, kNuisance * sizeof(double)) == 0 &&
+             std::memcmp(point + 1 + kNuisance, corner, sizeof(double)) == 0;
+    }
+  };
+
+  void Compute(const double* slope, const double* p, const double* corner) const {
+    double d[kSlots] = {};  // a model's lobe leaves the slots it does not use at 0
     double specular;
     switch (model_) {
       case ProfileModel::kSmooth:
@@ -129,25 +164,24 @@ class ProfileSampleCost : public ceres::SizedCostFunction<1, 1, kNuisance, 1> {
     // A censored bin's value is a lower bound: a model above it is as good
     // as the bound itself, and flat there.
     const bool above_bound = censored_ && residual > 0.0;
-    residuals[0] = above_bound ? 0.0 : residual;
-    if (jacobians == nullptr) return true;
     const double per = above_bound ? 0.0 : 1.0 / sigma_;
-    if (jacobians[0] != nullptr) jacobians[0][0] = d[kSlopeSlot] * per;
-    if (jacobians[1] != nullptr) {
-      double* j = jacobians[1];
-      j[0] = d[kMirrorSlot] * per;
-      j[1] = d[kBlurSlot] * per;
-      j[2] = d[kScaleSlot] * per;
-      j[3] = per;
-      j[4] = (phi_ - phi_center_) * per;
-      j[5] = scatter_shape_ * per;
-      j[6] = dome_shape_ * per;
-    }
-    if (jacobians[2] != nullptr) jacobians[2][0] = d[kCornerSlot] * per;
-    return true;
+    last_.valid = true;
+    last_.point[0] = slope[0];
+    std::copy(p, p + kNuisance, last_.point + 1);
+    last_.point[1 + kNuisance] = corner[0];
+    last_.residual = above_bound ? 0.0 : residual;
+    double* j = last_.jacobian;
+    j[0] = d[kSlopeSlot] * per;
+    j[1] = d[kMirrorSlot] * per;
+    j[2] = d[kBlurSlot] * per;
+    j[3] = d[kScaleSlot] * per;
+    j[4] = per;
+    j[5] = (phi_ - phi_center_) * per;
+    j[6] = scatter_shape_ * per;
+    j[7] = dome_shape_ * per;
+    j[1 + kNuisance] = d[kCornerSlot] * per;
   }
 
- private:
   // The specular lobe's parameters in the order of their Jet slots: a
   // model differentiates the first N of them (the smooth model's lobe does
   // not depend on the max slope, nor any but the sawtooth's on corners).
@@ -200,6 +234,8 @@ class ProfileSampleCost : public ceres::SizedCostFunction<1, 1, kNuisance, 1> {
   double phi_, value_, sigma_, fixed_blur_, sharpest_blur_, phi_center_, view_;
   bool censored_;
   double scatter_shape_, dome_shape_;
+  // One cost per residual block, which Ceres never evaluates from two threads at once.
+  mutable Evaluated last_;
 };
 
 // Each bin's mean with its clipped pixels counted at the clip level, where
