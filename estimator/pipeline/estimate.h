@@ -217,6 +217,10 @@ struct Estimate {
   // The least-squares fits of the lobe, where they ran (FitProfileModels;
   // empty otherwise): what the model was chosen from (estimator/select).
   ProfileFitResult lobe_fits;
+  // The BIC per independent bin by which the chosen lobe fit beat the other
+  // split model's (ModelChoice::evidence) where a lobe fit's numbers were
+  // taken; 0 where peak picking's reading stands.
+  double model_evidence = 0.0;
   // One line for logs: model, spacing and slope with their errors.
   std::string BriefReport() const;
 };

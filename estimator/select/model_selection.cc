@@ -106,6 +106,36 @@ bool OnePeakExplainsTheSplit(const ModelFit& smooth, const ModelFit& split,
          peaks.spacing_rad >= options.min_split_per_blur * blur && AtTheMirror(smooth, peaks);
 }
 
+// Two Gaussian peaks of width σ closer than 2σ show one maximum: a split
+// fit whose caustics stand under this many of its blurs (with the
+// smoothing) apart draws one peak.
+constexpr double kMergedCausticsPerBlur = 2.0;
+
+// Whether the fits read one peak where peak picking read a split: every
+// converged split fit, started at peak picking's split, left it for caustics
+// merged into one maximum (kMergedCausticsPerBlur) at the mirror azimuth,
+// more than 3 of peak picking's errors short of its split (a fit's own
+// error on a split it merged can be any size: it is not a reading of one),
+// and the one-peak fit stands at the mirror too. The maxima read as caustics are
+// then something the models do not hold (a ripple of axial glint lines or
+// of stray light's relief beside a lone specular peak): the lobe's own
+// shape, fitted whole, says no split.
+bool FitsMergeTheCaustics(const ProfileFitResult& fits, int smooth, const PeakReading& peaks) {
+  if (smooth < 0 || !AtTheMirror(fits.fits[smooth], peaks)) return false;
+  int split_fits = 0;
+  for (const ModelFit& f : fits.fits) {
+    if (f.model == ProfileModel::kSmooth || !f.converged) continue;
+    ++split_fits;
+    const double blur = std::hypot(f.blur_rad, peaks.smoothing_rad);
+    const double spacing = PeakSpacingRad(f.max_slope);
+    if (spacing >= kMergedCausticsPerBlur * blur ||
+        peaks.spacing_rad - spacing <= 3.0 * peaks.spacing_stderr_rad || !AtTheMirror(f, peaks)) {
+      return false;
+    }
+  }
+  return split_fits > 0;
+}
+
 // Why a split fit does not read the split (or, with `deciding`, cannot
 // tell the two split models apart), in a user's words; empty where it does.
 std::string WhyNotRead(const ModelFit& fit, const ModelFit* smooth, const PeakReading& peaks,
@@ -166,6 +196,16 @@ ModelChoice ChooseProfileModel(const PeakReading& peaks, const ProfileFitResult&
         "best split fit, so those maxima are not caustics (glint lines of axial threads, or "
         "stray light's relief, stand across the whole lit surface)",
         ProfileModelName(picked), peaks.spacing_rad / kDegree, choice.evidence);
+    return choice;
+  }
+  if (FitsMergeTheCaustics(fits, smooth, peaks)) {
+    choice.model = ProfileModel::kSmooth;
+    choice.fit = smooth;
+    choice.reason = absl::StrFormat(
+        "SMOOTH, not the %s peak picking read from maxima %.2f deg apart: fitted to the whole "
+        "lobe from that split, every split model closed its caustics into one peak at the mirror "
+        "azimuth, so those maxima are not caustics",
+        ProfileModelName(picked), peaks.spacing_rad / kDegree);
     return choice;
   }
   choice.model = picked;

@@ -217,6 +217,34 @@ TEST(ChooseProfileModelTest, ANarrowPeakThatExplainsTheLobeOverturnsAWideSplit) 
   EXPECT_EQ(c.model, ProfileModel::kSinusoid);
 }
 
+TEST(ChooseProfileModelTest, SplitFitsThatMergeTheirCausticsReadOnePeak) {
+  // Maxima 20° ± 1° apart, read beside a lone specular peak: both split
+  // fits, started there, closed their caustics to under two of their blurs
+  // (0.96° and 0.69° apart through 0.55° blurs, with the 0.25° smoothing
+  // 0.6°), at the mirror azimuth. The sinusoid beats one peak by its extra
+  // freedom, and the sawtooth's error on its slope is as large as the
+  // slope: neither reads a split.
+  ProfileFitResult r = Fits(866.8, 847.8, 959.5, 4.7);
+  r.fits[1].max_slope = std::tan(0.48 * kDeg);
+  r.fits[2].max_slope = std::tan(0.345 * kDeg);
+  r.fits[2].max_slope_stderr = 0.53;
+  for (ModelFit& f : r.fits) f.blur_rad = 0.55 * kDeg;
+  ModelChoice c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSmooth);
+  EXPECT_EQ(c.fit, 0);
+  EXPECT_NE(c.reason.find("closed its caustics into one peak"), std::string::npos) << c.reason;
+  // One split fit whose caustics stay apart (3 of its blurs) keeps the
+  // split read.
+  r.fits[2].max_slope = std::tan(0.9 * kDeg);
+  c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+  // Merged, but off the mirror azimuth: not the specular lobe's reading.
+  r.fits[2].max_slope = std::tan(0.345 * kDeg);
+  r.fits[1].mirror_rad = 5.0 * kDeg;
+  c = ChooseProfileModel(Read(ProfileModel::kSinusoid), r);
+  EXPECT_EQ(c.model, ProfileModel::kSinusoid);
+}
+
 TEST(ChooseProfileModelTest, UnconvergedFitsLeavePeakPickingAlone) {
   ProfileFitResult r = Fits(300, 200, 100);
   for (ModelFit& f : r.fits) f.converged = false;
