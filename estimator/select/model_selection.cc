@@ -116,10 +116,10 @@ constexpr double kMergedCausticsPerBlur = 2.0;
 // merged into one maximum (kMergedCausticsPerBlur) at the mirror azimuth,
 // more than 3 of peak picking's errors short of its split (a fit's own
 // error on a split it merged can be any size: it is not a reading of one),
-// and the one-peak fit stands at the mirror too. The maxima read as caustics are
-// then something the models do not hold (a ripple of axial glint lines or
-// of stray light's relief beside a lone specular peak): the lobe's own
-// shape, fitted whole, says no split.
+// and the one-peak fit stands at the mirror too. The maxima read as
+// caustics are then something the models do not hold (a ripple of axial
+// glint lines or of stray light's relief beside a lone specular peak): the
+// lobe's own shape, fitted whole, says no split.
 bool FitsMergeTheCaustics(const ProfileFitResult& fits, int smooth, const PeakReading& peaks) {
   if (smooth < 0 || !AtTheMirror(fits.fits[smooth], peaks)) return false;
   int split_fits = 0;

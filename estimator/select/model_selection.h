@@ -69,13 +69,16 @@ struct ModelChoice {
   std::string reason;
 };
 
-// Peak picking decides whether the lobe splits, but for one case: a split
+// Peak picking decides whether the lobe splits, but for two cases: a split
 // the fits find where it saw one peak, or one peak they prefer where it saw
 // two caustics a few blurs apart, came out 0.6-1.9° off with errors of
 // 0.1-0.35° on the stability sweep (grazing light, α = 140°; m = 0.04).
-// The case: a split read from maxima many blurs apart (min_split_per_blur)
+// The cases: a split read from maxima many blurs apart (min_split_per_blur)
 // that one narrow peak at the mirror azimuth explains decisively better
-// (min_split_evidence) is one peak; the maxima were not caustics. Between
+// (min_split_evidence) is one peak; so is one whose every split fit,
+// started there, closed its caustics into one maximum at the mirror
+// azimuth (under two of its blurs apart, beyond peak picking's errors of
+// the split read). The maxima were not caustics. Between
 // the two split models the fits decide on min_split_evidence, where their
 // lobe can tell the two apart (min_split_per_blur,
 // min_teeth_between_caustics).
