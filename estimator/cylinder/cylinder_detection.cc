@@ -627,7 +627,9 @@ struct BandLimbs {
   bool found = false;
   double left_cross = 0.0;  // sub-pixel limb position
   double right_cross = 0.0;
-  double left_background = 0.0;  // the side strip's level, each side
+  // The backdrop beside each limb (Backdrop), which its half-level
+  // crossing is taken from.
+  double left_background = 0.0;
   double right_background = 0.0;
   // All rows (FindShearedLimbs): the first column from each side where a
   // step fired; the limb lies at or beyond it.
@@ -636,6 +638,9 @@ struct BandLimbs {
   // Left out because a limb stood at the first column searched: the body
   // reaches into a side strip.
   bool at_strip = false;
+  // Where the body's texture, not its level, placed the limb.
+  bool left_textured = false;
+  bool right_textured = false;
 };
 
 // Sub-pixel position where a band profile crosses `level` between columns
@@ -653,22 +658,72 @@ double Crossing(const std::vector<double>& profile, int a, int b, double level) 
   return a;
 }
 
+// One band's texture: each column's variance down the band's rows,
+// smoothed over kBox columns, and the level it must pass to show a body:
+// the side strips' own (their median: the backdrop's noise) times the
+// larger of 2 and the variance's sampling scatter, 6 standard errors.
+struct BandTexture {
+  std::vector<double> variance;
+  double floor = 0.0;      // the strips' variance
+  double threshold = 0.0;  // what a body's texture exceeds
+};
+
+// Where a band's texture first stands above its threshold for three
+// columns from each side strip inward (−1: nowhere), and the sub-pixel
+// limb there: where the texture crosses half-way from the strips' to the
+// body's a few columns in. A stray-lit woven body can stand at the
+// backdrop's very level near its limbs and still show its weave: the
+// threads' shading makes each column's pixels spread down the rows by 2-3
+// times the noise (measured on renders with stray light at the backdrop's
+// level), where the band mean shows no step at all.
+struct TextureLimbs {
+  int left = -1, right = -1;
+  double left_cross = 0.0, right_cross = 0.0;
+};
+TextureLimbs FindTextureLimbs(const BandTexture& t, int side) {
+  TextureLimbs out;
+  const std::vector<double>& v = t.variance;
+  const int w = static_cast<int>(v.size());
+  if (w < 2 * side + 8 || !(t.threshold > 0.0)) return out;
+  auto above = [&](int x) { return x >= 0 && x < w && v[x] > t.threshold; };
+  for (int x = side; x + 2 < w - side && out.left < 0; ++x) {
+    if (above(x) && above(x + 1) && above(x + 2)) out.left = x;
+  }
+  for (int x = w - 1 - side; x - 2 >= side && out.right < 0; --x) {
+    if (above(x) && above(x - 1) && above(x - 2)) out.right = x;
+  }
+  if (out.left < 0 || out.right < 0 || out.right <= out.left) return TextureLimbs{};
+  const double left_half = 0.5 * (t.floor + v[std::min(out.left + 3, w - 1)]);
+  const double right_half = 0.5 * (t.floor + v[std::max(out.right - 3, 0)]);
+  out.left_cross = Crossing(v, std::max(out.left - 3, 0), std::min(out.left + 4, w - 1), left_half);
+  out.right_cross =
+      Crossing(v, std::min(out.right + 3, w - 1), std::max(out.right - 4, 0), right_half);
+  return out;
+}
+
+// A texture onset this many columns ahead of the level's is the limb: the
+// level's own onset scatters by a column or two with the noise.
+constexpr int kTextureLeadPx = 3;
+
 // The limbs of one band's profile: from each side strip inward, the first
 // three columns of the profile smoothed over kBox columns that stand
-// `threshold` from that side's own background level (up: a lit or grey body
-// on a darker background; down: a dark cloth on a brighter one). Each
-// side's own level: a gradient across the frame puts the two strips apart,
-// and one level for both put one side's strip itself beyond the threshold.
-// The levels are the strips' over all rows (a band's own strip is noisier,
-// and moved the blurred limbs' first estimates by tenths of a pixel).
-// `glints_left` and `glints_right`: the lobe's glints may reach that limb
-// (see below).
+// `threshold` from the backdrop's level there, `backdrop` (one per column:
+// Backdrop over the band's rows). Up: a lit or grey body on a darker
+// background; down: a dark cloth on a brighter one. The backdrop's own
+// level: a gradient across the frame puts the two strips apart, and
+// vignetting lifts the backdrop between them toward the frame's centre, by
+// as much as a faint body stands from it (one level for the frame put the
+// edges where the backdrop itself rose past the threshold, up to 200 px
+// outside the limbs). The model is the strips' over all rows (a band's own
+// strip is noisier, and moved the blurred limbs' first estimates by tenths
+// of a pixel). `glints_left` and `glints_right`: the lobe's glints may reach
+// that limb (see below).
 BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double threshold,
                         int min_separation, bool glints_left, bool glints_right,
-                        double left_background, double right_background) {
+                        const std::vector<double>& backdrop, const BandTexture& texture) {
   BandLimbs b;
   const int w = static_cast<int>(profile.size());
-  if (w < 2 * side + 8) return b;
+  if (w < 2 * side + 8 || static_cast<int>(backdrop.size()) != w) return b;
   // Smoothed over kBox columns, so that a dim limb still stands out of the
   // noise; the sub-pixel position comes from the unsmoothed level below.
   constexpr int kBox = 5;
@@ -684,23 +739,19 @@ BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double thr
       smoothed[x] = sum / count;
     }
   }
-  b.left_background = left_background;
-  b.right_background = right_background;
-  auto above = [&](int x, double background) {
-    return x >= 0 && x < w && std::fabs(smoothed[x] - background) > threshold;
+  auto above = [&](int x) {
+    return x >= 0 && x < w && std::fabs(smoothed[x] - backdrop[x]) > threshold;
   };
   int left = -1;
   for (int x = side; x + 2 < w - side; ++x) {
-    const double bg = b.left_background;
-    if (above(x, bg) && above(x + 1, bg) && above(x + 2, bg)) {
+    if (above(x) && above(x + 1) && above(x + 2)) {
       left = x;
       break;
     }
   }
   int right = -1;
   for (int x = w - 1 - side; x - 2 >= side; --x) {
-    const double bg = b.right_background;
-    if (above(x, bg) && above(x - 1, bg) && above(x - 2, bg)) {
+    if (above(x) && above(x - 1) && above(x - 2)) {
       right = x;
       break;
     }
@@ -709,7 +760,11 @@ BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double thr
   // strip taken as background: its position is not measured, and the
   // band is left out.
   b.at_strip = (left == side || right == w - 1 - side) && left >= 0 && right >= 0;
+  const TextureLimbs textured = FindTextureLimbs(texture, side);
   if (left < 0 || right < 0 || right - left < min_separation || b.at_strip) return b;
+  // The backdrop beside each limb: its level where the body starts.
+  b.left_background = backdrop[std::max(left - 2, 0)];
+  b.right_background = backdrop[std::min(right + 2, w - 1)];
   // Sub-pixel limb: where the smoothed profile (a symmetric box keeps a
   // step's half-level crossing in place) crosses half-way between the
   // background and the surface level just inside the limb. The first
@@ -735,6 +790,11 @@ BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double thr
   b.left_cross = Crossing(smoothed, std::max(left - 3, 0), std::min(left + 4, w - 1), left_half);
   b.right_cross =
       Crossing(smoothed, std::min(right + 3, w - 1), std::max(right - 4, 0), right_half);
+  // A limb whose body shows first in its texture (TextureLimbs) lies there.
+  b.left_textured = textured.left >= 0 && textured.left < left - kTextureLeadPx;
+  b.right_textured = textured.right >= 0 && textured.right > right + kTextureLeadPx;
+  if (b.left_textured) b.left_cross = textured.left_cross;
+  if (b.right_textured) b.right_cross = textured.right_cross;
   b.found = true;
   return b;
 }
@@ -958,11 +1018,16 @@ struct BandEdges {
   // band's mean there is a lower bound, and the edge fits leave it out.
   std::vector<std::uint8_t> clipped;
   // The background beside each limb: its side strip's level (a gradient
-  // across the frame puts the two apart).
+  // across the frame puts the two apart). The limb placer starts from it
+  // and then measures its own beside each limb's line (SetLocalBackgrounds):
+  // started from the backdrop model's level there (Backdrop), a stray-lit
+  // body rolling off to its limb under a gradient came out 0.55 px out.
   double left_background = 0.0;
   double right_background = 0.0;
   int first = 0;  // the band's rows, inclusive
   int last = 0;
+  bool left_textured = false;  // BandLimbs
+  bool right_textured = false;
 };
 
 // At most `max_rows` of the bands' rows (those with `use[i]`, when given),
@@ -1028,15 +1093,34 @@ StripNoise StripRowNoise(const Image& luminance, const PixelRegion& region, int 
   return {one_pixel(left_steps), one_pixel(right_steps)};
 }
 
+// The backdrop's level over the frame, from the side strips: a gradient
+// (a + b·u + c·v) under the lens's vignetting, a fall-off with the square
+// of the distance from the frame's centre (k·(u² + v²); to first order the
+// product of the two), u and v the column and row from the centre over the
+// half-diagonal. The strips fix the gradient and, down their rows, the
+// fall-off's curvature, which vignetting, being radial, shares across the
+// rows: so the level is known between the strips, where a limb stands,
+// though no strip pixel lies there.
+struct Backdrop {
+  double a = 0.0, b = 0.0, c = 0.0, k = 0.0;
+  double x0 = 0.0, y0 = 0.0, scale = 1.0;  // the frame's centre and half-diagonal, px
+  double At(double x, double y) const {
+    const double u = (x - x0) / scale;
+    const double v = (y - y0) / scale;
+    return a + b * u + c * v + k * (u * u + v * v);
+  }
+};
+
 // The background beside the cylinder: the side strips' width (at least
 // 2 px), their level (both strips', and each side's own, for a gradient
-// across the frame) and one pixel's noise.
+// across the frame), one pixel's noise, and the backdrop between them.
 struct SideStrips {
   int side = 0;
   double background = 0.0;
   double left_background = 0.0;
   double right_background = 0.0;
   double noise = 0.0;
+  Backdrop backdrop;
 };
 
 // How many columns between two edges show a body: a mean over all rows
@@ -1179,11 +1263,22 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   moved.all_right = region.x + all.right_cross;
   // Inward only where no step fired within kReseedPx of the bands' line (a
   // step that fired there but broke further in is the limb's, its break
-  // drawn in by glints or texture beside it).
+  // drawn in by glints or texture beside it), and never inward of a limb
+  // most of whose bands saw the body's texture there: a stray-lit body at
+  // the backdrop's level has no step for all rows to find (a mount wider
+  // than the cylinder, its lit limb at the backdrop's level: the limb moved
+  // 8 px in, onto where the body's shading rose).
+  int left_textured = 0, right_textured = 0;
+  for (std::size_t i = 0; i < bands->size(); ++i) {
+    left_textured += left.inlier[i] && (*bands)[i].left_textured ? 1 : 0;
+    right_textured += right.inlier[i] && (*bands)[i].right_textured ? 1 : 0;
+  }
+  const bool left_in = 2 * left_textured <= inliers(left);
+  const bool right_in = 2 * right_textured <= inliers(right);
   const bool left_out = all.left_cross < left.at_center - kReseedPx ||
-                        all.left_fired > left.at_center + kReseedPx;
+                        (left_in && all.left_fired > left.at_center + kReseedPx);
   const bool right_out = all.right_cross > right.at_center + kReseedPx ||
-                         all.right_fired < right.at_center - kReseedPx;
+                         (right_in && all.right_fired < right.at_center - kReseedPx);
   for (BandEdges& b : *bands) {
     const double along = slope * (b.row - center_row);
     if (left_out) b.left_cross = all.left_cross + along;
@@ -2761,6 +2856,36 @@ void LimbPlacer::SetLocalBackgrounds(const std::vector<LimbPoint>& left,
   }
 }
 
+// An unblurred step fitted to a blurred limb comes out too far out by at
+// most about this many of the blur's σ: 0.2, 1.1 and 3.4 px at a blur of
+// 1, 1.3 and 2 px with glints by the limb at 100° (640×480, noise-free).
+constexpr double kMaxInwardPerBlur = 1.75;
+
+// The lit limb placed through the limb in shadow's blur `sigma`, from 90°
+// on, where the outer caustic nears it: within 0.1 px at 95-100° (2 and
+// 3 px, 640×480, noise-free) but 1.6 px in at 120° and 3 px, where the
+// glints are blurred into the limb's rise, and 2.9 px out at 120° and 2 px,
+// where they cut its window short. Returns its allowance (px): 0.5 px per
+// px of blur, or as for an unused blur when the window was cut. An
+// unblurred step fitted to a blurred limb (`unblurred`) comes out too far
+// out by less than kMaxInwardPerBlur of its σ; a through-blur line (`fit`)
+// further in than that has slid onto the outer caustic's flank (5 px in at
+// 99° through a 2 px blur, the caustic 5 px inside the limb). Then neither
+// reading stands alone: `fit`'s line is put between them, half their
+// difference the allowance, and `between` set.
+double LitLimbThroughOtherBlur(const LimbFit& unblurred, double sigma, int inward, LimbFit* fit,
+                               bool* between) {
+  double allowance =
+      fit->whole ? kThroughOtherBlurPxPerPx * sigma : kUnusedBlurPxPerPx2 * sigma * sigma;
+  const double moved = (fit->line.at_center - unblurred.line.at_center) * inward;
+  if (std::isfinite(unblurred.scatter) && moved > kMaxInwardPerBlur * sigma) {
+    fit->line.at_center -= 0.5 * moved * inward;
+    allowance = std::max(allowance, 0.5 * moved);
+    *between = true;
+  }
+  return allowance;
+}
+
 PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   PlacedLimbs placed;
   std::vector<LimbPoint>& left_points = placed.left_points;
@@ -2894,19 +3019,14 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
   double& right_through_blur_px = placed.right_through_blur_px;
   auto place_limb = [&](int inward) {
     std::vector<LimbPoint>& points = inward > 0 ? left_points : right_points;
-    const LimbFit fit = JointLimb(inward, points, &lens);
+    LimbFit fit = JointLimb(inward, points, &lens);
     if (!std::isfinite(fit.scatter)) return;
+    bool between = false;  // put between two readings (below): on the line
     const bool toward_light = inward > 0 ? light_ < 0 : light_ > 0;
-    if (shadow_is_limb && toward_light && !(inward > 0 ? left_try : right_try).whole) {
-      // The lit limb placed through the limb in shadow's blur, from 90° on,
-      // where the outer caustic nears it: within 0.1 px at 95-100° (2 and
-      // 3 px, 640×480, noise-free) but 1.6 px in at 120° and 3 px, where
-      // the glints are blurred into the limb's rise, and 2.9 px out at 120°
-      // and 2 px, where they cut its window short. Its allowance: 0.5 px
-      // per px of blur, or as for an unused blur when the window was cut.
+    const LimbFit& unblurred = inward > 0 ? left_try : right_try;
+    if (shadow_is_limb && toward_light && !unblurred.whole) {
       (inward > 0 ? left_systematic_px : right_systematic_px) = std::hypot(
-          kLimbSystematicPx, fit.whole ? kThroughOtherBlurPxPerPx * sigma
-                                       : kUnusedBlurPxPerPx2 * sigma * sigma);
+          kLimbSystematicPx, LitLimbThroughOtherBlur(unblurred, sigma, inward, &fit, &between));
     }
     (inward > 0 ? left_through_blur_px : right_through_blur_px) =
         ThroughBlur(inward, points, fit, blur_stderr_px);
@@ -2915,12 +3035,119 @@ PlacedLimbs LimbPlacer::Place(bool shadow_is_limb) {
       points = RefineLimb(inward, 0.0, lens, &fit.line);
       return;
     }
+    if (between) {
+      // Each band refined again would slide back onto the caustic's flank.
+      for (LimbPoint& p : points) {
+        p.column = fit.line.at_center + fit.line.slope * (p.row - center_row_);
+      }
+      return;
+    }
     points = RefineLimb(inward, fit.scatter, lens, &fit.line);
     (inward > 0 ? left_held_px : right_held_px) =
         HeldShift(inward, fit);
   };
   ForBothLimbs([&] { place_limb(+1); }, [&] { place_limb(-1); });
   return placed;
+}
+
+// The backdrop (Backdrop) fitted by least squares to the medians of blocks
+// of each strip's rows (a glint or a speck in a strip moves a median by
+// little). Too few blocks for the fall-off's curvature: a level per strip,
+// joined by the line between them.
+Backdrop FitBackdrop(const Image& luminance, const PixelRegion& region, int side, double left_level,
+                     double right_level) {
+  constexpr int kBlocks = 16;
+  constexpr double kOutlierSigmas = 4.0;
+  Backdrop d;
+  d.x0 = 0.5 * (luminance.width - 1);
+  d.y0 = 0.5 * (luminance.height - 1);
+  d.scale = std::max(1.0, 0.5 * std::hypot(luminance.width, luminance.height));
+  const double left_x = region.x + 0.5 * (side - 1);
+  const double right_x = region.x + region.width - 1 - 0.5 * (side - 1);
+  // The fallback: the line between the strips, flat down the rows.
+  d.b = (right_level - left_level) / std::max((right_x - left_x) / d.scale, 1e-9);
+  d.a = left_level - d.b * (left_x - d.x0) / d.scale;
+  const int blocks = std::min(kBlocks, region.height / 8);
+  if (blocks < 6 || side < 2) return d;
+  struct Sample {
+    double x, y, level;
+  };
+  std::vector<Sample> samples;
+  const int column_step = std::max(1, side / 16);
+  for (int s = 0; s < 2; ++s) {
+    for (int i = 0; i < blocks; ++i) {
+      const int y0 = region.y + i * region.height / blocks;
+      const int y1 = region.y + (i + 1) * region.height / blocks;
+      const int row_step = std::max(1, (y1 - y0) / 16);
+      std::vector<double> values;
+      for (int y = y0; y < y1; y += row_step) {
+        for (int j = 0; j < side; j += column_step) {
+          values.push_back(
+              luminance.At(s == 0 ? region.x + j : region.x + region.width - 1 - j, y));
+        }
+      }
+      samples.push_back({s == 0 ? left_x : right_x, 0.5 * (y0 + y1 - 1), Median(values)});
+    }
+  }
+  // Blocks far from their strip's median level are not backdrop (a mount
+  // beyond the cylinder's ends, wider than it, reaches the strips): the
+  // backdrop's own variation down a strip is smooth and small beside them.
+  std::vector<bool> used(samples.size(), true);
+  for (int s = 0; s < 2; ++s) {
+    std::vector<double> levels;
+    for (int i = 0; i < blocks; ++i) levels.push_back(samples[s * blocks + i].level);
+    const double median = Median(levels);
+    std::vector<double> deviation;
+    for (double l : levels) deviation.push_back(std::fabs(l - median));
+    const double spread = std::max(1.4826 * Median(deviation), 1e-12);
+    for (int i = 0; i < blocks; ++i) {
+      used[s * blocks + i] = deviation[i] <= kOutlierSigmas * spread;
+    }
+  }
+  // Vignetting only darkens the frame away from its centre (k ≤ 0); a
+  // rise toward the strips' ends is something else, and the fall-off is
+  // left out (below).
+  bool fall_off = true;
+  double fall_off_stderr = 0.0;
+  auto fit = [&](Backdrop* out) {
+    cv::Mat a(0, 4, CV_64F);
+    cv::Mat y(0, 1, CV_64F);
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      if (!used[i]) continue;
+      const double u = (samples[i].x - d.x0) / d.scale;
+      const double v = (samples[i].y - d.y0) / d.scale;
+      const double row[4] = {1.0, u, v, fall_off ? u * u + v * v : 0.0};
+      a.push_back(cv::Mat(1, 4, CV_64F, const_cast<double*>(row)));
+      y.push_back(samples[i].level);
+    }
+    cv::Mat x;
+    if (a.rows < 8 || !cv::solve(a, y, x, cv::DECOMP_SVD)) return false;
+    out->a = x.at<double>(0);
+    out->b = x.at<double>(1);
+    out->c = x.at<double>(2);
+    out->k = x.at<double>(3);
+    if (fall_off) {
+      // The fall-off's standard error: the residuals' variance times the
+      // diagonal of (AᵀA)⁻¹.
+      const cv::Mat residual = a * x - y;
+      const double variance = residual.dot(residual) / std::max(a.rows - 4, 1);
+      const cv::Mat inverse = (a.t() * a).inv(cv::DECOMP_SVD);
+      fall_off_stderr = std::sqrt(std::max(variance * inverse.at<double>(3, 3), 0.0));
+    }
+    return true;
+  };
+  Backdrop first = d;
+  if (!fit(&first)) return d;
+  // The fall-off is kept only where the strips show it (beyond 3 of its
+  // errors): fitted to noise, its curvature lifts or lowers the backdrop
+  // between the strips by a share of the noise that a faint limb or a
+  // terminator's shallow ramp is placed against.
+  if (first.k > 0.0 || std::fabs(first.k) < 3.0 * fall_off_stderr) {
+    fall_off = false;
+    first = d;
+    if (!fit(&first)) return d;
+  }
+  return first;
 }
 
 // SideStrips, measured: `side_fraction` of the region's width at each side.
@@ -2949,6 +3176,8 @@ SideStrips MeasureSideStrips(const Image& luminance, const PixelRegion& region,
   strips.right_background = Median(right_samples);
   for (double& s : samples) s = std::fabs(s - background);
   strips.noise = std::max(1.4826 * Median(samples), 1e-6);
+  strips.backdrop =
+      FitBackdrop(luminance, region, side, strips.left_background, strips.right_background);
   return strips;
 }
 
@@ -2967,6 +3196,37 @@ std::vector<double> ColumnMeans(const Image& luminance, const PixelRegion& regio
   }
   for (double& v : sums) v /= std::max(*rows, 1);
   return sums;
+}
+
+// A band's texture (BandTexture) from its column means and sums of squares
+// over `rows` rows.
+BandTexture MeasureBandTexture(const std::vector<double>& mean, const std::vector<double>& sum_sq,
+                               int rows, int side) {
+  BandTexture t;
+  const int w = static_cast<int>(mean.size());
+  if (rows < 4 || w < 2 * side + 8) return t;
+  constexpr int kBox = 5;
+  std::vector<double> variance(w);
+  for (int x = 0; x < w; ++x) {
+    variance[x] = std::max(sum_sq[x] / rows - mean[x] * mean[x], 0.0) * rows / (rows - 1);
+  }
+  t.variance.assign(w, 0.0);
+  for (int x = 0; x < w; ++x) {
+    const int lo = std::max(0, x - kBox / 2), hi = std::min(w - 1, x + kBox / 2);
+    for (int k = lo; k <= hi; ++k) t.variance[x] += variance[k];
+    t.variance[x] /= hi - lo + 1;
+  }
+  std::vector<double> strips;
+  for (int x = 0; x < side; ++x) {
+    strips.push_back(t.variance[x]);
+    strips.push_back(t.variance[w - 1 - x]);
+  }
+  t.floor = Median(strips);
+  // A variance over n rows scatters by √(2/(n − 1)) of itself; over kBox
+  // columns by √kBox less.
+  const double scatter = std::sqrt(2.0 / (kBox * (rows - 1.0)));
+  t.threshold = t.floor * std::max(2.0, 1.0 + 6.0 * scatter);
+  return t;
 }
 
 // Each band of rows' column means and first limb estimates (FindBandLimbs),
@@ -3000,7 +3260,8 @@ BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
                         : 0;
   const bool glints_reach_limb =
       light != 0 && std::fabs(options.phase_angle_rad) >= kGlintsReachLimbRad;
-  std::vector<double> profile(region.width);
+  std::vector<double> profile(region.width), squares(region.width);
+  std::vector<double> backdrop(region.width);
   for (int b = 0; b < bands; ++b) {
     const int y0 = region.y + static_cast<int>(
                                   static_cast<long long>(b) * region.height / bands);
@@ -3014,6 +3275,7 @@ BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
     constexpr int kBandRows = 32;
     const int stride = std::max(1, (y1 - y0 + kBandRows - 1) / kBandRows);
     std::fill(profile.begin(), profile.end(), 0.0);
+    std::fill(squares.begin(), squares.end(), 0.0);
     int band_rows = 0;
     std::vector<std::uint8_t> clipped;
     for (int y = y0; y < y1; y += stride) {
@@ -3023,8 +3285,9 @@ BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
         for (int x = 0; x < region.width; ++x) clipped[x] |= flags[region.x + x];
       }
       // OpenCV's vectorised float-into-double accumulation.
-      cv::accumulate(cv::Mat(1, region.width, CV_32F, const_cast<float*>(row)),
-                     cv::Mat(1, region.width, CV_64F, profile.data()));
+      const cv::Mat pixels(1, region.width, CV_32F, const_cast<float*>(row));
+      cv::accumulate(pixels, cv::Mat(1, region.width, CV_64F, profile.data()));
+      cv::accumulateSquare(pixels, cv::Mat(1, region.width, CV_64F, squares.data()));
       ++band_rows;
     }
     for (int x = 0; x < region.width; ++x) mean_profile[x] += profile[x];
@@ -3034,15 +3297,17 @@ BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
       p /= band_rows;
       peak = std::max(peak, p);
     }
+    const BandTexture texture = MeasureBandTexture(profile, squares, band_rows, side);
     // A band mean's noise, over the smoothing box's five columns.
     constexpr int kBox = 5;
     const double threshold =
         std::max(options.edge_sigmas * noise / std::sqrt(band_rows * kBox),
                  0.005 * (peak - background));
+    const double band_row = 0.5 * (y0 + y1 - 1);
+    for (int x = 0; x < region.width; ++x) backdrop[x] = strips.backdrop.At(region.x + x, band_row);
     const BandLimbs limbs = FindBandLimbs(
         profile, side, threshold, static_cast<int>(2 * options.min_radius_px),
-        glints_reach_limb && light < 0, glints_reach_limb && light > 0, strips.left_background,
-        strips.right_background);
+        glints_reach_limb && light < 0, glints_reach_limb && light > 0, backdrop, texture);
     if (!limbs.found) {
       scan.at_strip += limbs.at_strip ? 1 : 0;
       continue;
@@ -3050,8 +3315,8 @@ BandScan ScanBands(const Image& luminance, const PixelRegion& region, int bands,
     const double row = 0.5 * (y0 + y1 - 1);
     const double band_radius = 0.5 * (limbs.right_cross - limbs.left_cross);
     bands_seen.push_back({row, limbs.left_cross, limbs.right_cross, band_radius, profile,
-                          std::move(clipped), limbs.left_background, limbs.right_background,
-                          y0, y1 - 1});
+                          std::move(clipped), strips.left_background, strips.right_background, y0,
+                          y1 - 1, limbs.left_textured, limbs.right_textured});
   }
   return scan;
 }
