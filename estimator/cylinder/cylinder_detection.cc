@@ -658,22 +658,6 @@ double Crossing(const std::vector<double>& profile, int a, int b, double level) 
   return a;
 }
 
-// The mean of v over `box` columns about each column (box odd), truncated
-// at the ends: a running sum.
-std::vector<double> BoxMean(const std::vector<double>& v, int box) {
-  const int w = static_cast<int>(v.size());
-  std::vector<double> out(w, 0.0);
-  double sum = 0.0;
-  for (int k = 0; k < std::min(box / 2, w); ++k) sum += v[k];
-  for (int x = 0; x < w; ++x) {
-    if (x + box / 2 < w) sum += v[x + box / 2];
-    if (x - box / 2 - 1 >= 0) sum -= v[x - box / 2 - 1];
-    const int count = std::min(w - 1, x + box / 2) - std::max(0, x - box / 2) + 1;
-    out[x] = sum / count;
-  }
-  return out;
-}
-
 // One band's texture: each column's variance down the band's rows,
 // smoothed over kBox columns, and the level it must pass to show a body:
 // the side strips' own (their median: the backdrop's noise) times the
@@ -743,7 +727,18 @@ BandLimbs FindBandLimbs(const std::vector<double>& profile, int side, double thr
   // Smoothed over kBox columns, so that a dim limb still stands out of the
   // noise; the sub-pixel position comes from the unsmoothed level below.
   constexpr int kBox = 5;
-  const std::vector<double> smoothed = BoxMean(profile, kBox);
+  std::vector<double> smoothed(w, 0.0);
+  {
+    // A running sum over the box, truncated at the profile's ends.
+    double sum = 0.0;
+    for (int k = 0; k < std::min(kBox / 2, w); ++k) sum += profile[k];
+    for (int x = 0; x < w; ++x) {
+      if (x + kBox / 2 < w) sum += profile[x + kBox / 2];
+      if (x - kBox / 2 - 1 >= 0) sum -= profile[x - kBox / 2 - 1];
+      const int count = std::min(w - 1, x + kBox / 2) - std::max(0, x - kBox / 2) + 1;
+      smoothed[x] = sum / count;
+    }
+  }
   auto above = [&](int x) {
     return x >= 0 && x < w && std::fabs(smoothed[x] - backdrop[x]) > threshold;
   };
@@ -3215,7 +3210,15 @@ BandTexture MeasureBandTexture(const std::vector<double>& mean, const std::vecto
   for (int x = 0; x < w; ++x) {
     variance[x] = std::max(sum_sq[x] / rows - mean[x] * mean[x], 0.0) * rows / (rows - 1);
   }
-  t.variance = BoxMean(variance, kBox);
+  // Summed directly, not as a running sum: a running sum's rounding leaves
+  // a residue where the variance is exactly 0 (a JPEG's flat backdrop),
+  // and a floor of that residue made every column textured.
+  t.variance.assign(w, 0.0);
+  for (int x = 0; x < w; ++x) {
+    const int lo = std::max(0, x - kBox / 2), hi = std::min(w - 1, x + kBox / 2);
+    for (int k = lo; k <= hi; ++k) t.variance[x] += variance[k];
+    t.variance[x] /= hi - lo + 1;
+  }
   std::vector<double> strips;
   for (int x = 0; x < side; ++x) {
     strips.push_back(t.variance[x]);
