@@ -641,6 +641,9 @@ struct BandLimbs {
   // Where the body's texture, not its level, placed the limb.
   bool left_textured = false;
   bool right_textured = false;
+  // All rows: where the body's texture starts (NaN: nowhere).
+  double left_texture = std::numeric_limits<double>::quiet_NaN();
+  double right_texture = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Sub-pixel position where a band profile crosses `level` between columns
@@ -667,6 +670,10 @@ struct BandTexture {
   double floor = 0.0;      // the strips' variance
   double threshold = 0.0;  // what a body's texture exceeds
 };
+// The texture of columns whose variances over `rows` rows are `variance`:
+// smoothed, and its threshold the larger of `min_ratio` and the sampling
+// scatter's 6 standard errors times the strips' own.
+BandTexture TextureOf(std::vector<double> variance, int rows, int side, double min_ratio);
 
 // Where a band's texture first stands above its threshold for three
 // columns from each side strip inward (−1: nowhere), and the sub-pixel
@@ -899,9 +906,15 @@ double BreakPoint(const std::vector<double>& profile, int a, int b, int step,
 BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
                            const std::vector<int>& rows, double slope, double center_row,
                            int side, double noise, int min_separation) {
-  std::vector<double> sum(region.width, 0.0);
+  // Each column's sums of its values, their squares and their products
+  // with the row's offset from center_row (the texture, below).
+  std::vector<double> sum(region.width, 0.0), sum_sq(region.width, 0.0), sum_yv(region.width, 0.0);
   std::vector<int> count(region.width, 0);
+  double sy = 0.0, syy = 0.0;  // of the rows' offsets
   for (int y : rows) {
+    const double dy = y - center_row;
+    sy += dy;
+    syy += dy * dy;
     // Column x reads between x0 = x + whole and x0 + 1, at t beyond x0.
     const double at = region.x + slope * (y - center_row);
     const int whole = static_cast<int>(std::floor(at));
@@ -910,7 +923,10 @@ BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
     const int x_lo = std::max(0, region.x - whole);
     const int x_hi = std::min(region.width - 1, region.x + region.width - 2 - whole);
     for (int x = x_lo; x <= x_hi; ++x) {
-      sum[x] += (1.0 - t) * row[x + whole] + t * row[x + whole + 1];
+      const double v = (1.0 - t) * row[x + whole] + t * row[x + whole + 1];
+      sum[x] += v;
+      sum_sq[x] += v * v;
+      sum_yv[x] += dy * v;
       ++count[x];
     }
   }
@@ -926,9 +942,16 @@ BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
     last_full = x;
   }
   if (first_full < 0) return BandLimbs();
+  // Each column's variance down the rows about a line in the row: the
+  // backdrop's gradient along the axis is no texture.
+  std::vector<double> variance(region.width, 0.0);
+  const double vyy = syy - sy * sy / full;
   for (int x = 0; x < region.width; ++x) {
     const int from = std::clamp(x, first_full, last_full);
     profile[x] = sum[from] / full;
+    const double vvv = sum_sq[from] - sum[from] * sum[from] / full;
+    const double vyv = sum_yv[from] - sy * sum[from] / full;
+    variance[x] = std::max(vyy > 0.0 ? vvv - vyv * vyv / vyy : vvv, 0.0) / std::max(full - 2, 1);
   }
   // Steps over 4, 8 and 16 columns: a body that rises slowly from its limb
   // (stray light grazing it) shows over the wider ones first. A step at x is
@@ -1001,6 +1024,25 @@ BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
   };
   limbs.left_cross = first_step(+1, &limbs.left_fired);
   limbs.right_cross = first_step(-1, &limbs.right_fired);
+  // The body's texture over all rows: at kAllRowsTextureRatio of the
+  // strips' variance, well above the variance's scatter over hundreds of
+  // rows and above what a brighter backdrop's photon noise adds (a
+  // vignetting of a quarter raises it by that share at most), where one
+  // band's rows need twice the strips' (TextureLimbs).
+  constexpr double kAllRowsTextureRatio = 1.5;
+  BandTexture texture = TextureOf(std::move(variance), full, side, kAllRowsTextureRatio);
+  // A file's codes spread a smooth backdrop's pixels by up to a code about
+  // its level where they step (a JPEG's ringing about each step too): no
+  // texture holds less than a code's square.
+  const double code = CodeStep(luminance, Median(strips));
+  texture.threshold = std::max(texture.threshold, kAllRowsTextureRatio * code * code);
+  const TextureLimbs textured = FindTextureLimbs(texture, side);
+  // Texture from the first column searched on reaches into a side strip
+  // (the body does there): that onset is not measured.
+  if (textured.left > side) limbs.left_texture = textured.left_cross;
+  if (textured.right >= 0 && textured.right < region.width - 1 - side) {
+    limbs.right_texture = textured.right_cross;
+  }
   limbs.found = std::isfinite(limbs.left_cross) && std::isfinite(limbs.right_cross) &&
                 limbs.right_cross - limbs.left_cross >= min_separation;
   return limbs;
@@ -1279,6 +1321,19 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
                         (left_in && all.left_fired > left.at_center + kReseedPx);
   const bool right_out = all.right_cross > right.at_center + kReseedPx ||
                          (right_in && all.right_fired < right.at_center - kReseedPx);
+  // Where the body's texture over all rows starts further out than either
+  // reading, the limb lies there: a stray-lit body rolls off to its limb at
+  // the backdrop's level, with stripes of the weave's relief beside it that
+  // draw the level's break in (4-5 px at 200 px radius), while its texture
+  // stands 1.5-2 times the backdrop's variance out to the limb.
+  double left_at = left_out ? all.left_cross : left.at_center;
+  double right_at = right_out ? all.right_cross : right.at_center;
+  const bool left_textured_out = all.left_texture < left_at - kReseedPx;
+  const bool right_textured_out = all.right_texture > right_at + kReseedPx;
+  if (left_textured_out) left_at = all.left_texture;
+  if (right_textured_out) right_at = all.right_texture;
+  const bool left_moves = left_out || left_textured_out;
+  const bool right_moves = right_out || right_textured_out;
   // Only the bands on the cylinder move: it spans the rows from the first
   // band on either line to the last, and the bands beyond them saw a mount
   // or an end, whose edges must stay off the lines for the stages after
@@ -1296,12 +1351,12 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   for (std::size_t i = first_on; i <= last_on && i < bands->size(); ++i) {
     BandEdges& b = (*bands)[i];
     const double along = slope * (b.row - center_row);
-    if (left_out) b.left_cross = all.left_cross + along;
-    if (right_out) b.right_cross = all.right_cross + along;
+    if (left_moves) b.left_cross = left_at + along;
+    if (right_moves) b.right_cross = right_at + along;
     b.radius = 0.5 * (b.right_cross - b.left_cross);
   }
-  moved.left = left_out;
-  moved.right = right_out;
+  moved.left = left_moves;
+  moved.right = right_moves;
   moved.left_bands = left;
   moved.right_bands = right;
   moved.left_bands.at_center += region.x;
@@ -3245,11 +3300,18 @@ BandTexture MeasureBandTexture(const std::vector<double>& mean, const std::vecto
   BandTexture t;
   const int w = static_cast<int>(mean.size());
   if (rows < 4 || w < 2 * side + 8) return t;
-  constexpr int kBox = 5;
   std::vector<double> variance(w);
   for (int x = 0; x < w; ++x) {
     variance[x] = std::max(sum_sq[x] / rows - mean[x] * mean[x], 0.0) * rows / (rows - 1);
   }
+  return TextureOf(std::move(variance), rows, side, 2.0);
+}
+
+BandTexture TextureOf(std::vector<double> variance, int rows, int side, double min_ratio) {
+  BandTexture t;
+  const int w = static_cast<int>(variance.size());
+  if (rows < 4 || w < 2 * side + 8) return t;
+  constexpr int kBox = 5;
   // Summed directly, not as a running sum: a running sum's rounding leaves
   // a residue where the variance is exactly 0 (a JPEG's flat backdrop),
   // and a floor of that residue made every column textured.
@@ -3268,7 +3330,7 @@ BandTexture MeasureBandTexture(const std::vector<double>& mean, const std::vecto
   // A variance over n rows scatters by √(2/(n − 1)) of itself; over kBox
   // columns by √kBox less.
   const double scatter = std::sqrt(2.0 / (kBox * (rows - 1.0)));
-  t.threshold = t.floor * std::max(2.0, 1.0 + 6.0 * scatter);
+  t.threshold = t.floor * std::max(min_ratio, 1.0 + 6.0 * scatter);
   return t;
 }
 

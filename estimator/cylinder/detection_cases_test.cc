@@ -1389,4 +1389,35 @@ TEST(DetectionCasesTest, AnEightBitPhotographKeepsItsVignetting) {
   ExpectLimbsThroughFile(scene, EncodeFormat::kPng8, 1.0);
 }
 
+// At 90° a body in weak stray light alone (no diffuse term) meets its limbs
+// near the backdrop's level, under a gradient across the frame: each band
+// finds its lit limb's first step further in, where the body's shading
+// rises, and the photograph was refused (the surface beyond that edge went
+// on past the terminator). Its texture over all rows, 1.5-2.5 times the
+// backdrop's variance, reaches out to the limb.
+TEST(DetectionCasesTest, ABodysTextureOverAllRowsReachesItsLimb) {
+  RenderScene scene = CaseScene();
+  scene.wavelength_mm = 4.1843;
+  scene.amplitude_mm = 0.07486;
+  scene.phase_angle_deg = 90.49;
+  scene.center_x_px = 163.9;
+  scene.radius_px = 89.4;
+  scene.axis_angle_deg = 0.59;
+  scene.source_blur_deg = 1.41;
+  scene.exposure = 0.0067;
+  scene.diffuse = 0.0;
+  scene.ambient = 0.0193;
+  scene.background = 0.0239;
+  scene.photons_full_scale = 10000.0;
+  scene.stray_light = 0.0253;
+  scene.stray_texture = 0.47;
+  scene.axial_glint_width = 0.201;
+  scene.axial_float_width = 0.36;
+  scene.background_gradient = -0.0262;
+  scene.background_gradient_deg = 29.0;
+  scene.black_level = 0.0141;
+  scene.seed = 78;
+  ExpectLimbsThroughFile(scene, EncodeFormat::kPng8, 1.0);
+}
+
 }  // namespace weavefit
