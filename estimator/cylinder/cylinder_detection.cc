@@ -708,6 +708,43 @@ TextureLimbs FindTextureLimbs(const BandTexture& t, int side) {
   return out;
 }
 
+// From the side strip inward (step +1: from the left), the first three
+// columns of the smoothed texture `v` that stand `ratio` times the
+// backdrop's beside them (the median over kBesidePx columns from kGapPx
+// outside: the box's spread of a limb's texture clears the gap) and above
+// `least`; the limb where the texture crosses half-way from that backdrop's
+// to the body's (the median of the five columns from the onset in, which
+// a glint among them does not move). NaN where there is none, or where it
+// starts at the strip's edge (the body reaches into the strip: its onset
+// is not measured).
+double TextureOnset(const std::vector<double>& v, int side, int step, double ratio, double least) {
+  constexpr int kGapPx = 3;
+  constexpr int kBesidePx = 16;
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  const int w = static_cast<int>(v.size());
+  if (!(ratio > 0.0) || w < 2 * side + 8) return kNone;
+  std::vector<double> near;
+  auto median_from = [&](int x, int first, int count) {
+    near.clear();
+    for (int k = first; k < first + count; ++k) {
+      const int at = x + step * k;
+      if (at >= 0 && at < w) near.push_back(v[at]);
+    }
+    return near.empty() ? kNone : Median(near);
+  };
+  for (int k = side; k + 2 < w - side; ++k) {
+    const int x = step > 0 ? k : w - 1 - k;
+    const double beside = median_from(x, -kGapPx - kBesidePx + 1, kBesidePx);
+    const double level = std::max(ratio * beside, least);
+    if (!(v[x] > level && v[x + step] > level && v[x + 2 * step] > level)) continue;
+    if (k == side) return kNone;
+    const double half = 0.5 * (beside + median_from(x, 0, 5));
+    return Crossing(v, std::clamp(x - 3 * step, 0, w - 1), std::clamp(x + 4 * step, 0, w - 1),
+                    half);
+  }
+  return kNone;
+}
+
 // A texture onset this many columns ahead of the level's is the limb: the
 // level's own onset scatters by a column or two with the noise.
 constexpr int kTextureLeadPx = 3;
@@ -1024,25 +1061,22 @@ BandLimbs FindShearedLimbs(const Image& luminance, const PixelRegion& region,
   };
   limbs.left_cross = first_step(+1, &limbs.left_fired);
   limbs.right_cross = first_step(-1, &limbs.right_fired);
-  // The body's texture over all rows: at kAllRowsTextureRatio of the
-  // strips' variance, well above the variance's scatter over hundreds of
-  // rows and above what a brighter backdrop's photon noise adds (a
-  // vignetting of a quarter raises it by that share at most), where one
-  // band's rows need twice the strips' (TextureLimbs).
-  constexpr double kAllRowsTextureRatio = 1.5;
-  BandTexture texture = TextureOf(std::move(variance), full, side, kAllRowsTextureRatio);
+  // The body's texture over all rows, against the backdrop's just beside
+  // it (TextureOnset): kAllRowsTextureRatio of it, or the variance's own
+  // scatter's 6 standard errors if more. The backdrop beside a limb shares
+  // its vignetting and its photon noise, so that only the scatter and what
+  // the few tens of columns between them change set the ratio; against the
+  // strips' (TextureLimbs), a vignetting of a quarter lifts a backdrop's
+  // variance near the centre by that share.
+  constexpr double kAllRowsTextureRatio = 1.25;
+  const BandTexture texture = TextureOf(std::move(variance), full, side, kAllRowsTextureRatio);
+  const double ratio = texture.floor > 0.0 ? texture.threshold / texture.floor : 0.0;
   // A file's codes spread a smooth backdrop's pixels by up to a code about
   // its level where they step (a JPEG's ringing about each step too): no
   // texture holds less than a code's square.
   const double code = CodeStep(luminance, Median(strips));
-  texture.threshold = std::max(texture.threshold, kAllRowsTextureRatio * code * code);
-  const TextureLimbs textured = FindTextureLimbs(texture, side);
-  // Texture from the first column searched on reaches into a side strip
-  // (the body does there): that onset is not measured.
-  if (textured.left > side) limbs.left_texture = textured.left_cross;
-  if (textured.right >= 0 && textured.right < region.width - 1 - side) {
-    limbs.right_texture = textured.right_cross;
-  }
+  limbs.left_texture = TextureOnset(texture.variance, side, +1, ratio, ratio * code * code);
+  limbs.right_texture = TextureOnset(texture.variance, side, -1, ratio, ratio * code * code);
   limbs.found = std::isfinite(limbs.left_cross) && std::isfinite(limbs.right_cross) &&
                 limbs.right_cross - limbs.left_cross >= min_separation;
   return limbs;

@@ -1420,4 +1420,36 @@ TEST(DetectionCasesTest, ABodysTextureOverAllRowsReachesItsLimb) {
   ExpectLimbsThroughFile(scene, EncodeFormat::kPng8, 1.0);
 }
 
+// The limb away from the light at -105°, in stray light that leaves the body
+// 0.002 above the backdrop there, under a gradient; the weave's relief
+// draws stripes beside the limb, where each band's and all rows' breaks
+// fell 4-5 px in. The texture against the backdrop's beside it (1.3-1.5
+// times) reaches out to the limb.
+TEST(DetectionCasesTest, AFaintLimbBesideStripesOfReliefIsFoundByItsTexture) {
+  RenderScene scene = CaseScene();
+  scene.width_px = 640;
+  scene.height_px = 480;
+  scene.wavelength_mm = 4.2795;
+  scene.amplitude_mm = 0.14908;
+  scene.phase_angle_deg = -105.29;
+  scene.center_x_px = 345.3;
+  scene.radius_px = 212.7;
+  scene.source_blur_deg = 0.45;
+  scene.exposure = 0.0067;
+  scene.diffuse = 0.0;
+  scene.ambient = 0.0198;
+  scene.background = 0.0468;
+  scene.optics_blur_px = 0.86;
+  scene.photons_full_scale = 3000.0;
+  scene.stray_light = 0.0748;
+  scene.stray_texture = 0.35;
+  scene.axial_glint_width = 0.224;
+  scene.background_gradient = 0.016;
+  scene.background_gradient_deg = 7.0;
+  scene.black_level = 0.023;
+  scene.white_level = 0.99977;
+  scene.seed = 20;
+  ExpectLimbsThroughFile(scene, EncodeFormat::kPng8, 2.0);
+}
+
 }  // namespace weavefit
