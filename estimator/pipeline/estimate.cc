@@ -378,7 +378,8 @@ Quantity CombWavelength(const CombFitResult& comb, const CombFitOptions& options
 }
 
 // The comb fit's max slope, spacing, wavelength and amplitude replace the
-// profile's, with its cluster-robust errors and the model floors.
+// profile's, with its cluster-robust errors and the model floors (the
+// model, a sinusoid's, is the caller's: ModelWithConfirmedComb).
 void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
                   const Acquisition& acquisition, double mirror_start_rad, Estimate* estimate) {
   // A fit that leaves residuals larger than the start's noise scale (a
@@ -442,7 +443,6 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
   for (CandidateScore& c : estimate->candidates) c.selected = false;
   estimate->candidates.push_back(
       {ProfileModel::kSinusoid, "comb fit (glints row by row)", -comb.explained, true});
-  estimate->model = ProfileModel::kSinusoid;
   estimate->warnings.push_back(absl::StrFormat(
       "max slope and wavelength from the comb of glints fitted pixel by pixel over %d rows "
       "of %d threads (the model explains %.1f%% of their variance; source blur %.2f deg, "
@@ -1073,22 +1073,19 @@ void ApplyWavelength(const WavelengthReading& reading, const Acquisition& acquis
     ApplyCombPeriod(*reading.period_only, options.comb, lattice.threads, acquisition, estimate);
     return;
   }
-  // A sawtooth the lobe's shape decides (its fit beats the sinusoid's by
-  // min_split_evidence or more: no steep sinusoid's inner shoulders) is
-  // not overturned by a comb: a sinusoid's comb laid over a sawtooth's lit
-  // facets, which repeat along the arc beside each caustic, can explain
-  // most of the rows' variance there (94 % on a noisy render).
-  const bool sawtooth_decided =
-      sawtooth_read && estimate->model_evidence >= ModelSelectionOptions().min_split_evidence;
-  if (reading.best && sawtooth_decided) {
-    estimate->warnings.push_back(absl::StrFormat(
-        "wavelength and amplitude unresolved: the glints fit a sinusoid's comb of a %.3f mm "
-        "period, but the lobe's shape is a sawtooth's (its fit beats the sinusoid's by %.0f BIC "
-        "per independent bin), and a sawtooth's glints do not repeat along the arc",
-        reading.best->wavelength_mm, estimate->model_evidence));
-    return;
-  }
   if (const std::optional<CombFitResult>& best = reading.best) {
+    // The model a confirmed comb names (select/): a sinusoid, unless the
+    // lobe's shape decides a sawtooth.
+    const ProfileModel model = ModelWithConfirmedComb(estimate->model, estimate->model_evidence);
+    if (model != ProfileModel::kSinusoid) {
+      estimate->warnings.push_back(absl::StrFormat(
+          "wavelength and amplitude unresolved: the glints fit a sinusoid's comb of a %.3f mm "
+          "period, but the lobe's shape is a sawtooth's (its fit beats the sinusoid's by %.0f "
+          "BIC per independent bin), and a sawtooth's glints do not repeat along the arc",
+          best->wavelength_mm, estimate->model_evidence));
+      return;
+    }
+    estimate->model = model;
     ApplyCombFit(*best, options.comb, acquisition, peaks.mirror_rad, estimate);
     if (reading.from_lattice) {
       CountLatticeDifference(*best, options.comb, lattice.threads, estimate);

@@ -266,4 +266,10 @@ ProfileModel ChooseModelOffTheGeometry(ProfileModel named, const ProfileFitResul
              : named;
 }
 
+ProfileModel ModelWithConfirmedComb(ProfileModel named, double evidence,
+                                    const ModelSelectionOptions& options) {
+  if (named == ProfileModel::kSawtooth && evidence >= options.min_split_evidence) return named;
+  return ProfileModel::kSinusoid;
+}
+
 }  // namespace weavefit

@@ -275,4 +275,27 @@ TEST(ChooseModelOffTheGeometryTest, OnePeakFarBetterThanEitherSplitIsSmooth) {
 }
 
 }  // namespace
+// A comb of glints confirmed along the arc makes a sawtooth read from the
+// level between the peaks a sinusoid, unless the lobe's shape decides the
+// sawtooth by min_split_evidence or more.
+TEST(ModelWithConfirmedCombTest, OverturnsASawtoothOnlyWhereTheLobeDoesNotDecideIt) {
+  const ModelSelectionOptions options;
+  EXPECT_EQ(ModelWithConfirmedComb(ProfileModel::kSawtooth, 0.0, options), ProfileModel::kSinusoid);
+  EXPECT_EQ(ModelWithConfirmedComb(ProfileModel::kSawtooth, -4.0, options),
+            ProfileModel::kSinusoid);
+  EXPECT_EQ(
+      ModelWithConfirmedComb(ProfileModel::kSawtooth, 0.9 * options.min_split_evidence, options),
+      ProfileModel::kSinusoid);
+  EXPECT_EQ(ModelWithConfirmedComb(ProfileModel::kSawtooth, options.min_split_evidence, options),
+            ProfileModel::kSawtooth);
+  EXPECT_EQ(ModelWithConfirmedComb(ProfileModel::kSawtooth, 603.0, options),
+            ProfileModel::kSawtooth);
+  EXPECT_EQ(ModelWithConfirmedComb(ProfileModel::kSinusoid, 603.0, options),
+            ProfileModel::kSinusoid);
+  ModelSelectionOptions strict = options;
+  strict.min_split_evidence = 700.0;
+  EXPECT_EQ(ModelWithConfirmedComb(ProfileModel::kSawtooth, 603.0, strict),
+            ProfileModel::kSinusoid);
+}
+
 }  // namespace weavefit
