@@ -1,27 +1,28 @@
 #include "estimator/cylinder/cylinder_detection.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <numeric>
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 #include <system_error>
 #include <thread>
 #include <utility>
 #include <vector>
 
+#include <Eigen/Dense>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "absl/status/status.h"
-#include "absl/strings/match.h"
-#include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
 #include "estimator/cylinder/terminator.h"
 #include "estimator/optics/radiance.h"
 #include "estimator/stats/golden_section.h"
 #include "estimator/stats/median.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 namespace weavefit {
 namespace {
@@ -1359,7 +1360,7 @@ Reseeded ReseedFaintLimbs(const Image& luminance, const PixelRegion& region, dou
   // reading, the limb lies there: a stray-lit body rolls off to its limb at
   // the backdrop's level, with stripes of the weave's relief beside it that
   // draw the level's break in (4-5 px at 200 px radius), while its texture
-  // stands 1.5-2 times the backdrop's variance out to the limb.
+  // stands 1.3-2 times the backdrop's variance out to the limb.
   double left_at = left_out ? all.left_cross : left.at_center;
   double right_at = right_out ? all.right_cross : right.at_center;
   const bool left_textured_out = all.left_texture < left_at - kReseedPx;
@@ -3180,8 +3181,9 @@ double InterquartileMean(std::vector<double> values) {
 // them by little, and unlike a median they are not held to the file's
 // codes (in an 8-bit photograph the blocks' medians took three codes, their
 // spread about their own median came out 0, and every block off it was
-// left out as an outlier, and with them the vignetting's fall-off). Too few blocks for the
-// fall-off's curvature: a level per strip, joined by the line between them.
+// left out as an outlier, and with them the vignetting's fall-off). Too
+// few blocks for the fall-off's curvature: a level per strip, joined by
+// the line between them.
 Backdrop FitBackdrop(const Image& luminance, const PixelRegion& region, int side, double left_level,
                      double right_level) {
   constexpr int kBlocks = 16;
