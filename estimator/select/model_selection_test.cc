@@ -274,7 +274,6 @@ TEST(ChooseModelOffTheGeometryTest, OnePeakFarBetterThanEitherSplitIsSmooth) {
   EXPECT_EQ(ChooseModelOffTheGeometry(ProfileModel::kSinusoid, r), ProfileModel::kSinusoid);
 }
 
-}  // namespace
 // A comb of glints confirmed along the arc makes a sawtooth read from the
 // level between the peaks a sinusoid, unless the lobe's shape decides the
 // sawtooth by min_split_evidence or more.
@@ -298,4 +297,5 @@ TEST(ModelWithConfirmedCombTest, OverturnsASawtoothOnlyWhereTheLobeDoesNotDecide
             ProfileModel::kSinusoid);
 }
 
+}  // namespace
 }  // namespace weavefit
