@@ -60,10 +60,12 @@ struct CombFitOptions {
   // the independently rendered photographs. (Where the main solve has a
   // quarter or less of the pieces needed, the polish does the real work: a
   // steep fine weave went from 0.02 to 0.88.) No caller takes a fit below
-  // 0.7 (the lattice's period-only fits, pipeline/estimate.cc); a
-  // sawtooth's caustics, which are no comb, explain 0.01-0.13 and so cost
-  // no polish.
-  double min_explained_to_polish = 0.45;
+  // 0.7 (the lattice's period-only fits, pipeline/estimate.cc), so 0.6
+  // leaves five times that gain as margin; a sawtooth's caustics, which are
+  // no comb, explain 0.01-0.13 and so cost no polish. At 0.45 a sawtooth's
+  // fit that reached 0.43 crawled on for 268 iterations (SolveComb), over
+  // half of its photograph's estimate, to be refused all the same.
+  double min_explained_to_polish = 0.6;
   // The fit is taken when the glints explain at least this share of the
   // rows' variance about their baselines: 0.85 to 0.998 on the fixtures'
   // sinusoids; at most 0.21 started from half or twice the period, but 0.75
