@@ -471,6 +471,7 @@ std::vector<SceneParam> SceneParams(RenderScene& s) {
       {"--crest-tilt-deg", "crestTiltDeg", "out-of-plane tilt at a thread's edges, deg; 0 = flat ribbons", &s.crest_tilt_deg},
       {"--phase-step", "phaseStep", "weave phase between neighbouring threads, periods (0.5 = plain weave)", &s.phase_step},
       {"--regular-weave", "regularWeave", "no drift or jitter of the weave phase", &s.regular_weave},
+      {"--relief-parallax", "reliefParallax", "rays meet the threads' relief, not the mean cylinder: glints near the limb move by up to h0*tan(phi - v)", &s.relief_parallax},
       {"--phase-jitter", "phaseJitter", "per-thread random phase shift, periods", &s.phase_jitter},
       {"--phase-drift", "phaseDrift", "random-walk step of the weave phase per thread, periods", &s.phase_drift},
       {"--optics-blur-px", "opticsBlurPx", "Gaussian sigma of the lens PSF, px", &s.optics_blur_px},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -123,6 +124,7 @@ class Sampler {
     radius_mm_ = scene.diameter_mm / 2.0;
     mm_per_px_ = radius_mm_ / radius_px_;
     pitch_mm_ = scene.wavelength_mm / 2.0;  // plain weave
+    h0_mm_ = scene.amplitude_mm;
     top_ = scene.top_row_px >= 0 ? scene.top_row_px : -1000000;
     bottom_ = scene.bottom_row_px >= 0 ? scene.bottom_row_px : 1000000;
     inv_gauss_ = 1.0 / (std::sqrt(2.0 * M_PI) * sigma_beta_);
@@ -175,7 +177,12 @@ class Sampler {
     const double phi = AzimuthFromOffset(offset, projection_);
     const double mirror = 0.5 * (alpha_ + ViewAngleRad(phi, projection_));
     const double pixel_rad = 1.5 / (radius_px_ * std::max(std::cos(phi), 0.05));
-    return std::fabs(phi - mirror) <= std::atan(m_) + 7.0 * sigma_beta_ + pixel_rad;
+    // A glint may be seen up to the relief's parallax from its facet.
+    const double parallax_rad =
+        scene_.relief_parallax
+            ? h0_mm_ * std::fabs(std::tan(phi - ViewAngleRad(phi, projection_))) / radius_mm_
+            : 0.0;
+    return std::fabs(phi - mirror) <= std::atan(m_) + 7.0 * sigma_beta_ + pixel_rad + parallax_rad;
   }
 
   // The sample at image point (u, v) covering du × dv pixels.
@@ -232,10 +239,13 @@ class Sampler {
       return t;
     }
     const int index = std::clamp(thread - first_thread_, 0, num_threads_ - 1);
-    const double s_mm = radius_mm_ * phi + thread_phase_mm_[index];
+    // The point of the thread the ray meets (RenderScene::relief_parallax),
+    // and the mean surface's point there otherwise.
+    const double seen = scene_.relief_parallax ? VisibleAzimuth(phi, view, index) : phi;
+    const double s_mm = radius_mm_ * seen + thread_phase_mm_[index];
     if (scene_.axial_float_width > 0.0) {
       // An axial thread floating over this thread at its trough hides it.
-      const double q = AxialPitches(thread, phi);
+      const double q = AxialPitches(thread, seen);
       const double w = q - 2.0 * std::round(0.5 * q);  // from the nearest trough
       if (std::fabs(w) < 0.5 * scene_.axial_float_width) {
         t.axial = axial(q);
@@ -253,15 +263,22 @@ class Sampler {
       const double height = ThreadHeight(scene_.model, scene_.wavelength_mm, s_mm);
       t.stray = Stray(phi + beta - view, 0.25 * (1.0 + height) + 0.5 * Round(2.0 * t_mid - 1.0));
     }
-    const double eps = phi + beta - mirror;
+    const double eps = seen + beta - mirror;
     // Far outside the source's reach: no glint (saves the rest).
     if (std::fabs(eps) > 8.0 * sigma_beta_) return t;
     const double cos_beta = 1.0 / std::sqrt(1.0 + slope * slope);
     // Mirror radiance of a Gaussian source, E0·G(2ε; 2σ_β), times the facet's
     // projected width over the mean surface's (DESIGN.md §3):
     // cos(φ+β−v) / (cos β · cos φ); the thread covers 1 − g of the pitch.
-    const double in_plane = 0.5 * inv_gauss_ * std::exp(-0.5 * eps * eps / (sigma_beta_ * sigma_beta_)) *
-                            std::max(std::cos(phi + beta - view), 0.0) / (cos_beta * cos_phi) /
+    // That width is cos(φ − v)·(1 + h′·tan(φ − v)) / cos φ, the factor in
+    // brackets being how much more of the image a facet of slope h′ takes
+    // than the mean surface at φ: where the rays meet the threads
+    // themselves, the sampling along the arc already counts it.
+    const double width = scene_.relief_parallax
+                             ? std::cos(seen - view) / std::max(std::cos(seen), kMinCosAzimuth)
+                             : std::max(std::cos(phi + beta - view), 0.0) / (cos_beta * cos_phi);
+    const double in_plane = 0.5 * inv_gauss_ *
+                            std::exp(-0.5 * eps * eps / (sigma_beta_ * sigma_beta_)) * width /
                             (1.0 - g);
     // Crest factor over this sample's share of the thread's width.
     const double half = 0.5 * dv * mm_per_px_ / pitch_mm_ / (1.0 - g);
@@ -286,6 +303,55 @@ class Sampler {
     return 2.0 * (s_mm / scene_.wavelength_mm - trough_cycles_);
   }
 
+  // The azimuth at which the ray through the mean surface's point `phi`
+  // (seen from view angle `view`) meets circumferential thread `index`: a
+  // point at height z off the mean cylinder at azimuth ψ is seen where the
+  // mean surface's ψ + z·tan(φ − v)/R is, to first order in z/R. Every root
+  // lies within h0·|tan(φ − v)|/R of φ; where the relief folds there are
+  // several, and the one nearest the camera is seen.
+  double VisibleAzimuth(double phi, double view, int index) const {
+    const double tan_view = std::tan(phi - view);
+    const double reach = h0_mm_ * std::fabs(tan_view) / radius_mm_;
+    if (!(reach > 0.0)) return phi;
+    auto height = [&](double psi) {
+      return h0_mm_ * ThreadHeight(scene_.model, scene_.wavelength_mm,
+                                   radius_mm_ * psi + thread_phase_mm_[index]);
+    };
+    auto miss = [&](double psi) { return psi + height(psi) * tan_view / radius_mm_ - phi; };
+    // Steps of a sixteenth of a period bracket every root (the miss turns
+    // at most twice a period).
+    const double step_rad = scene_.wavelength_mm / 16.0 / radius_mm_;
+    const int steps = std::max(2, static_cast<int>(std::ceil(2.0 * reach / step_rad)));
+    double best = phi, best_depth = -std::numeric_limits<double>::infinity();
+    double a = phi - reach, fa = miss(a);
+    for (int i = 1; i <= steps; ++i) {
+      const double b = phi - reach + 2.0 * reach * i / steps;
+      const double fb = miss(b);
+      if ((fa <= 0.0) != (fb <= 0.0) || fb == 0.0) {
+        double lo = a, hi = b, flo = fa;
+        for (int k = 0; k < 40; ++k) {
+          const double mid = 0.5 * (lo + hi);
+          const double fm = miss(mid);
+          if ((fm <= 0.0) == (flo <= 0.0)) {
+            lo = mid;
+            flo = fm;
+          } else {
+            hi = mid;
+          }
+        }
+        const double root = 0.5 * (lo + hi);
+        const double depth = (radius_mm_ + height(root)) * std::cos(root - view);
+        if (depth > best_depth) {
+          best_depth = depth;
+          best = root;
+        }
+      }
+      a = b;
+      fa = fb;
+    }
+    return best;
+  }
+
   // Height of a round cross-section at x radii from its middle, 0 to 1.
   static double Round(double x) { return std::sqrt(std::max(0.0, 1.0 - x * x)); }
 
@@ -300,7 +366,7 @@ class Sampler {
   const RenderScene& scene_;
   double cx_, cy_, radius_px_, tan_tilt_, cos_tilt_, sin_tilt_, alpha_, m_, sigma_beta_;
   Projection projection_;
-  double radius_mm_, mm_per_px_, pitch_mm_;
+  double radius_mm_, mm_per_px_, pitch_mm_, h0_mm_;
   int top_, bottom_;
   double inv_gauss_, crest_kappa0_, crest_norm_;
   bool stray_ = false;              // stray light on: the relief is needed
@@ -654,6 +720,7 @@ std::string TruthJson(const RenderScene& s, const RenderTruth& t,
   optional("backgroundGradientDeg", s.background_gradient_deg, defaults.background_gradient_deg);
   optional("blackLevel", s.black_level, defaults.black_level);
   optional("whiteLevel", s.white_level, defaults.white_level);
+  if (s.relief_parallax) scene_fields.emplace_back("reliefParallax", boolean(true));
   const std::string scene = object(scene_fields);
   return absl::StrCat("{\n  \"image\": \"", image_file, "\",\n  \"acquisition\": ", acquisition,
                       ",\n  \"truth\": ", truth, ",\n  \"scene\": ", scene, "\n}\n");

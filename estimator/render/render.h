@@ -81,6 +81,15 @@ struct RenderScene {
   // Largest out-of-plane tilt of a circumferential thread's surface at its
   // edges (0 = flat ribbons). A rounded thread glints only along its crest.
   double crest_tilt_deg = 6.0;
+  // Thread relief parallax (DESIGN.md §3): the circumferential threads
+  // stand up to h0 off the mean cylinder, so a ray meets a thread at an
+  // azimuth other than the mean surface's, z·tan(φ − v)/R from it (z the
+  // height there): toward the limb the two glints of a period move apart or
+  // together by up to 2·h0·tan(φ − v) of arc. Where the relief folds over
+  // itself (m·tan(φ − v) > 1) the ray's nearest point is the one seen; a
+  // crest's shadow on the next thread is not modelled. Off: every ray meets
+  // the mean cylinder, the facet's tilt weighting its light instead.
+  bool relief_parallax = false;
   double phase_step = 0.5;          // weave phase between neighbouring threads, periods
   bool regular_weave = false;       // no drift or jitter of the weave phase
   double phase_jitter = 0.04;       // per-thread random phase shift, in periods
