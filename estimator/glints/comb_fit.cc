@@ -56,6 +56,10 @@ struct Bin {
   double piece = 0.0;      // width of one sub-interval (rad)
   int pieces = 1;
   int first_node = 0;
+  // Bins the image of a point moves by per mm of relief height at the bin
+  // (AddParallaxGeometry): tan(φ − v)/R times the bins per rad of azimuth.
+  double bins_per_mm = 0.0;
+  double tan_view = 0.0;  // tan(φ − v) at the bin
 };
 
 // How finely the bins are integrated: two sub-intervals each (the rough
@@ -84,6 +88,10 @@ struct Row {
 struct BinPart {
   double value = 0.0;
   double grad[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+  // Where the relief parallax moves it (bins), and that move's gradient by
+  // m, λ and c (CombAt::parallax; 0 where it is not modelled).
+  double shift = 0.0;
+  double shift_grad[3] = {0.0, 0.0, 0.0};
 };
 
 // Whether BinMean extrapolates its sum from pairs of sub-intervals: at full
@@ -111,6 +119,11 @@ struct CombAt {
   // the weave phase of the floats' middles and their half-width (rad of
   // θ); half-width 0 where they are not modelled.
   double float_centre = 0.0, float_half = 0.0;
+  // Thread relief parallax (DESIGN.md §3): 1 where the glints are seen
+  // where their facets stand, z = (m/k)·sin θ off the mean cylinder, moved
+  // by z·Bin::bins_per_mm; 0 where every glint is placed on the mean
+  // cylinder.
+  double parallax = 0.0;
 };
 
 // The share of a circumferential thread hidden at weave phase θ = k·(s + c)
@@ -296,6 +309,46 @@ void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span,
   }
 }
 
+// The relief parallax's move of a part of `bin` centred at weave phase θ
+// (CombAt::parallax): its facets stand z = (m/k)·sin θ off the mean
+// cylinder (h = m·cos θ is dz/ds), and are seen z·Bin::bins_per_mm away.
+// The share of the thread seen at weave phase θ where the relief folds
+// over itself: measured in phase, the surface at θ is seen at θ + e·sin θ,
+// e = m·tan(φ − v), which turns back where e > 1 (|e| > 1 on the other
+// side of the line of sight). There the nearer crest hides what it turns
+// back over: on the far side of the line of sight, every point short of the
+// last turning point θ' (cos θ' = −1/e, the latest at or before θ) that is
+// seen short of it; on the near side the same with the next one. A hard
+// edge would make the cost jump as a glint crosses it: the edge is smoothed
+// over kFloatEdge, as the floats' (Hidden).
+double Unhidden(double theta, double e) {
+  if (std::fabs(e) <= 1.0) return 1.0;
+  const double turn = std::acos(-1.0 / e);
+  const double cycles = (theta - turn) / (2.0 * M_PI);
+  const double at = turn + 2.0 * M_PI * (e > 0.0 ? std::floor(cycles) : std::ceil(cycles));
+  const double ahead = (theta + e * std::sin(theta)) - (at + e * std::sin(at));
+  return 0.5 * (1.0 + std::tanh((e > 0.0 ? ahead : -ahead) / kFloatEdge));
+}
+
+void SetPartShift(const Bin& bin, const CombAt& at, double theta, BinPart* part) {
+  if (at.parallax == 0.0) return;
+  // A part the relief hides keeps its share only; the share's own
+  // derivatives are left out (its edge is narrow, and rarely on a glint).
+  const double seen = Unhidden(theta, at.m * bin.tan_view);
+  if (seen < 1.0) {
+    part->value *= seen;
+    for (double& g : part->grad) g *= seen;
+  }
+  const double per_mm = at.parallax * bin.bins_per_mm;
+  const double sin_t = std::sin(theta), cos_t = std::cos(theta);
+  const double z = at.m / at.k * sin_t;
+  part->shift = per_mm * z;
+  part->shift_grad[0] = per_mm * sin_t / at.k;  // by m
+  // By λ: z ∝ λ at a fixed θ, and dθ/dλ = −θ/λ.
+  part->shift_grad[1] = per_mm * (z - at.m / at.k * cos_t * theta) / at.lambda;
+  part->shift_grad[2] = per_mm * at.m * cos_t;  // by c
+}
+
 // Mean over one bin's footprint of sec β · G(miss; σ), G the unit-area
 // Gaussian, miss g = lhs − δ − arctan(m·cos(k(s + c))), and (with
 // at.gradient) its gradient by m, λ, ln σ, c and δ. Along each sub-interval
@@ -340,6 +393,7 @@ double BinMean(const Row& row, const Bin& bin, int stride, const CombAt& at, dou
         out.grad[p] =
             bin.weight * (4.0 * (fine[n - 2].grad[p] + fine[n - 1].grad[p]) - pair.grad[p]) / 3.0;
       }
+      SetPartShift(bin, at, nd.theta[n - 1], &out);
     }
     sum = (4.0 * sum - coarse) / 3.0;
     for (int p = 0; p < 5; ++p) grad[p] = (4.0 * grad[p] - coarse_grad[p]) / 3.0;
@@ -347,6 +401,7 @@ double BinMean(const Row& row, const Bin& bin, int stride, const CombAt& at, dou
     for (int n = 0; n + 1 < nodes; ++n) {
       parts[n].value = bin.weight * fine[n].value;
       for (int p = 0; p < 5; ++p) parts[n].grad[p] = bin.weight * fine[n].grad[p];
+      SetPartShift(bin, at, 0.5 * (nd.theta[n] + nd.theta[n + 1]), &parts[n]);
     }
   }
   for (int p = 0; p < 5; ++p) grad[p] *= bin.weight;
@@ -483,6 +538,7 @@ struct Shared {
   // The axial threads' floats that hide the comb (CombAt, Hidden): held
   // through a fit at the start's choice.
   double float_centre = 0.0, float_half = 0.0;
+  double parallax = 0.0;  // CombAt::parallax, held
   // The softplus: σ grows as ℓ for large ℓ and nears the floor as e^ℓ. A
   // comb sharper than a pixel has its optimum at the floor. A form with no
   // slope there (σ = hypot(q, 0.1)) makes the Gauss-Newton step in q grow
@@ -496,8 +552,41 @@ struct Shared {
   }
 };
 
+// One part of a bin, `from` bins from the first bin's middle before the
+// relief parallax moves it by part.shift, spread over the bins by the PSF
+// in pixel (InPixelPsfKernel's K, here at any offset), into `out` and, with
+// `grad`, its gradient: the PSF's width by ln σ_bins (times dlog_dl, the
+// width's derivative by ℓ) and the move's by m, λ and c.
+void SpreadMovedPart(const BinPart& part, double from, double sigma_bins, double dlog_dl,
+                     std::vector<double>* out, std::vector<std::array<double, 6>>* grad) {
+  const int n = static_cast<int>(out->size());
+  const double at = from + part.shift;
+  const double reach = 4.0 * sigma_bins + 0.5;
+  const int lo = std::max(0, static_cast<int>(std::floor(at - reach)));
+  const int hi = std::min(n - 1, static_cast<int>(std::ceil(at + reach)));
+  const double inv = 1.0 / sigma_bins;
+  auto pdf = [](double z) { return 0.3989422804014327 * std::exp(-0.5 * z * z); };
+  auto cdf = [](double z) { return 0.5 * std::erfc(-z * M_SQRT1_2); };
+  for (int j = lo; j <= hi; ++j) {
+    const double u = at - j;  // from bin j's middle
+    const double a = (0.5 - u) * inv, b = (-0.5 - u) * inv;
+    const double w = cdf(a) - cdf(b);
+    (*out)[j] += w * part.value;
+    if (grad == nullptr) continue;
+    const double pa = pdf(a), pb = pdf(b);
+    const double by_u = (pb - pa) * inv;  // dK/du
+    std::array<double, 6>& g = (*grad)[j];
+    for (int k = 0; k < 5; ++k) g[k] += w * part.grad[k];
+    g[0] += part.value * by_u * part.shift_grad[0];
+    g[1] += part.value * by_u * part.shift_grad[1];
+    g[3] += part.value * by_u * part.shift_grad[2];
+    g[5] += (-a * pa + b * pb) * dlog_dl * part.value;
+  }
+}
+
 // The row's modelled glint shape per bin (before level and baseline): bin
-// means blurred by the PSF; with `grad` non-null, also the derivatives by
+// means blurred by the PSF (in pixel wherever the relief parallax moves the
+// glints off their bins); with `grad` non-null, also the derivatives by
 // m, λ, ln σ, c, δ and ℓ (six per bin).
 std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, bool in_pixel,
                              const Shared& p, double c,
@@ -510,9 +599,10 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
   CombAt comb = MakeCombAt(p.m, p.lambda, p.delta, sigma, grad != nullptr);
   comb.float_centre = p.float_centre;
   comb.float_half = p.float_half;
+  comb.parallax = p.parallax;
   std::vector<double> out(n, 0.0);
   if (grad != nullptr) grad->assign(n, {0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
-  if (!in_pixel) {
+  if (!in_pixel && p.parallax == 0.0) {
     std::vector<double> raw(n);
     std::vector<std::array<double, 5>> raw_grad(n);
     for (int j = 0; j < n; ++j) {
@@ -552,6 +642,14 @@ std::vector<double> RowShape(const Row& row, Quadrature quadrature, int bin_px, 
   for (int i = 0; i < n; ++i) {
     if (!lit[i]) continue;
     const int per_bin = first_part[i + 1] - first_part[i];
+    if (p.parallax != 0.0) {
+      for (int q = 0; q < per_bin; ++q) {
+        const BinPart& part = parts[first_part[i] + q];
+        if (part.value == 0.0) continue;
+        SpreadMovedPart(part, i + (q + 0.5) / per_bin - 0.5, psf_px / bin_px, dlog_dl, &out, grad);
+      }
+      continue;
+    }
     const Kernel& kernel = PsfKernel(true, psf_px / bin_px, per_bin);
     for (int q = 0; q < per_bin; ++q) {
       const BinPart& part = parts[first_part[i] + q];
@@ -716,6 +814,9 @@ struct CombProblemData {
   int bin_px = 1;
   bool in_pixel = false;
   int num_residuals = 0;  // valid bins
+  double phi_mid = 0.0;   // the window's middle (rad), which arc lengths count from
+  double px_per_bin = 1.0;  // perpendicular to the axis, as the offsets
+  double radius_px = 0.0;   // the limbs' half-width, perpendicular to the axis
 };
 
 // Sub-intervals of one bin spanning `width_rad` in azimuth:
@@ -765,6 +866,9 @@ absl::StatusOr<CombProblemData> BuildCombProblem(const ArcPixels& pixels, const 
     if (!(hi > lo)) return absl::InvalidArgumentError("comb fit: the rows hold no pixels");
     phi_mid = 0.5 * (azimuth(lo) + azimuth(hi));
   }
+  data.phi_mid = phi_mid;
+  data.px_per_bin = pixels.bin_width_px;
+  data.radius_px = radius_px;
   for (std::size_t r = 0; r < pixels.rows.size(); ++r) {
     Row row;
     row.phase_mm = chosen.phase_mm[r] + radius_mm * phi_mid;
@@ -807,6 +911,27 @@ absl::StatusOr<CombProblemData> BuildCombProblem(const ArcPixels& pixels, const 
   return data;
 }
 
+// Each bin's Bin::bins_per_mm (the relief parallax, CombAt::parallax): a
+// point z mm off the mean cylinder at azimuth φ is seen where the mean
+// cylinder's φ + z·tan(φ − v)/R is, and the offset moves OffsetPerRadian
+// half-widths per radian there. Returns the most a glint of relief h0_mm
+// then moves, in pixels.
+double AddParallaxGeometry(const GlintModel& model, double h0_mm, CombProblemData* data) {
+  double most = 0.0;
+  for (Row& row : data->rows) {
+    for (Bin& b : row.bins) {
+      const double phi = data->phi_mid + b.from_mid;
+      const double rad_per_mm =
+          std::tan(phi - ViewAngleRad(phi, model.projection)) / model.projection.radius_mm;
+      const double px_per_rad = data->radius_px * OffsetPerRadian(phi, model.projection);
+      b.bins_per_mm = rad_per_mm * px_per_rad / data->px_per_bin;
+      b.tan_view = std::tan(phi - ViewAngleRad(phi, model.projection));
+      most = std::max(most, std::fabs(h0_mm * rad_per_mm * px_per_rad));
+    }
+  }
+  return most;
+}
+
 using OwnParams = std::vector<std::array<double, kOwn>>;
 
 // The start, in plain arithmetic with each row's level and baseline solved
@@ -816,7 +941,7 @@ using OwnParams = std::vector<std::array<double, kOwn>>;
 // peaks inward, so the start may be off by several per cent), and the
 // phases once more. The solver then starts close.
 Shared StartComb(const CombProblemData& data, const GlintModel& model, double wavelength_mm,
-                 OwnParams* own_out) {
+                 double parallax, OwnParams* own_out) {
   const std::vector<Row>& rows = data.rows;
   const int bin_px = data.bin_px;
   const bool in_pixel = data.in_pixel;
@@ -824,6 +949,7 @@ Shared StartComb(const CombProblemData& data, const GlintModel& model, double wa
   Shared p;
   p.m = model.max_slope;
   p.lambda = wavelength_mm;
+  p.parallax = parallax;
   OwnParams& own = *own_out;
   own.assign(rows.size(), {0.0, 0.0, 0.0, 0.0});
   for (std::size_t i = 0; i < rows.size(); ++i) own[i][0] = rows[i].phase_mm;
@@ -989,10 +1115,12 @@ struct CombParams {
   double psf_l = 0.0;
   OwnParams own;
   double float_centre = 0.0, float_half = 0.0;
+  double parallax = 0.0;
   Shared AsShared() const {
     Shared p;
     p.float_centre = float_centre;
     p.float_half = float_half;
+    p.parallax = parallax;
     p.m = shared[0];
     p.lambda = shared[1];
     p.delta = shared[2];
@@ -1047,18 +1175,18 @@ class RowShapes : public ceres::EvaluationCallback {
   struct Entry {
     bool filled = false, with_grad = false;
     Quadrature quadrature = Quadrature::kFull;
-    double key[8] = {};
+    double key[9] = {};
     std::vector<double> shape;
     std::vector<std::array<double, 6>> grad;
-    static void Key(const Shared& p, double c, double out[8]) {
-      const double k[8] = {p.m,     p.lambda, p.delta,        p.log_sigma,
-                           p.psf_l, c,        p.float_centre, p.float_half};
-      std::copy(k, k + 8, out);
+    static void Key(const Shared& p, double c, double out[9]) {
+      const double k[9] = {p.m, p.lambda,       p.delta,      p.log_sigma, p.psf_l,
+                           c,   p.float_centre, p.float_half, p.parallax};
+      std::copy(k, k + 9, out);
     }
     bool Holds(const Shared& p, double c, Quadrature q, bool jacobians) const {
-      double k[8];
+      double k[9];
       Key(p, c, k);
-      return filled && quadrature == q && (with_grad || !jacobians) && std::equal(k, k + 8, key);
+      return filled && quadrature == q && (with_grad || !jacobians) && std::equal(k, k + 9, key);
     }
   };
 
@@ -1084,13 +1212,14 @@ class RowShapes : public ceres::EvaluationCallback {
 class RowCost : public ceres::CostFunction {
  public:
   RowCost(const Row* row, std::size_t index, double inv_scale, RowShapes* shapes,
-          double float_centre, double float_half)
+          double float_centre, double float_half, double parallax)
       : row_(row),
         index_(index),
         inv_scale_(inv_scale),
         shapes_(shapes),
         float_centre_(float_centre),
-        float_half_(float_half) {
+        float_half_(float_half),
+        parallax_(parallax) {
     set_num_residuals(static_cast<int>(row->bins.size()));
     mutable_parameter_block_sizes()->assign({3, 1, 1, kOwn});
   }
@@ -1105,6 +1234,7 @@ class RowCost : public ceres::CostFunction {
     p.psf_l = parameters[2][0];
     p.float_centre = float_centre_;
     p.float_half = float_half_;
+    p.parallax = parallax_;
     const double* own = parameters[3];
     if (!RowShapes::Valid(p)) return false;
     const std::vector<std::array<double, 6>>* grad_ptr = nullptr;
@@ -1145,6 +1275,7 @@ class RowCost : public ceres::CostFunction {
   double inv_scale_;
   RowShapes* shapes_;
   double float_centre_, float_half_;  // the floats that hide the comb (held)
+  double parallax_;                   // CombAt::parallax (held)
 };
 
 // One residual block per row, over (m, λ, δ), ln σ, ℓ and its own; each
@@ -1152,10 +1283,10 @@ class RowCost : public ceres::CostFunction {
 void AddRowCosts(const CombProblemData& data, double scale, RowShapes* shapes, CombParams* params,
                  ceres::Problem* problem) {
   for (std::size_t i = 0; i < data.rows.size(); ++i) {
-    problem->AddResidualBlock(new RowCost(&data.rows[i], i, 1.0 / scale, shapes,
-                                          params->float_centre, params->float_half),
-                              nullptr, params->shared, &params->log_sigma, &params->psf_l,
-                              params->own[i].data());
+    problem->AddResidualBlock(
+        new RowCost(&data.rows[i], i, 1.0 / scale, shapes, params->float_centre, params->float_half,
+                    params->parallax),
+        nullptr, params->shared, &params->log_sigma, &params->psf_l, params->own[i].data());
   }
 }
 
@@ -1432,14 +1563,15 @@ bool ClusterErrors(const CombProblemData& data, ceres::Problem* problem, CombPar
 // into `out` when non-null.
 absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintModel& model,
                                       double wavelength_mm, const CombFitOptions& options,
-                                      const CombSolution* from, CombSolution* out) {
+                                      const CombSolution* from, CombSolution* out,
+                                      double parallax = 0.0) {
   CombParams params;
   Shared p;
   if (from != nullptr) {
     p = from->p;
     params.own = from->own;
   } else {
-    p = StartComb(data, model, wavelength_mm, &params.own);
+    p = StartComb(data, model, wavelength_mm, parallax, &params.own);
   }
   const double scale = NoiseScale(data, p, params.own, model.pixel_noise);
   if (!(scale > 0.0)) return absl::InvalidArgumentError("comb fit: the rows hold no signal");
@@ -1450,6 +1582,7 @@ absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintMo
   params.psf_l = p.psf_l;
   params.float_centre = p.float_centre;
   params.float_half = p.float_half;
+  params.parallax = p.parallax;
   Quadrature quadrature = Quadrature::kFull;
   RowShapes shapes(data, params, quadrature);
   ceres::Problem::Options problem_options;
@@ -1470,6 +1603,7 @@ absl::StatusOr<CombFitResult> FitComb(const CombProblemData& data, const GlintMo
   result.mirror_offset_rad = fit.delta;
   result.psf_px = fit.PsfPx();
   result.hidden_share = fit.float_half / M_PI;
+  result.relief_parallax = fit.parallax != 0.0;
   // No bounds in the solver (they cost it a line search per step); a result
   // outside them is not a fit of this comb.
   result.converged = summary.IsSolutionUsable() && summary.termination_type == ceres::CONVERGENCE;
@@ -1531,6 +1665,34 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
   CombSolution fitted;
   absl::StatusOr<CombFitResult> comb =
       FitComb(*built, model, wavelength_mm, options, nullptr, &fitted);
+  if (comb.ok() && comb->converged && options.model_parallax) {
+    // The comb places its glints on the mean cylinder; a glint stands where
+    // its facet lies, up to h0 off it, and is seen up to h0·sin(φ − v)
+    // from there (DESIGN.md §3: the relief's parallax), toward the limb
+    // pixels. Where that could move a glint by kMinParallaxPx (a quarter
+    // pixel: the comb's own PSF hides less), the fit with the glints so
+    // placed, from its own start, is kept if it converges to a PSF the
+    // limbs could show and explains more of the rows. Both are fitted: on
+    // the independently rendered photographs the comb alone explained
+    // 51-84 % at phase angles of 79-107° and read the spacing up to 0.57°
+    // off; placed, 69-94 %, and the spacing's median error fell from
+    // 0.088° to 0.037°. On renders without the parallax it was the better
+    // fit in 7 of 560 random scenes (by chance; all still within three
+    // stated errors) and on none of the fixtures.
+    constexpr double kMinParallaxPx = 0.25;
+    const double h0_mm = comb->max_slope * comb->wavelength_mm / (2.0 * M_PI);
+    if (AddParallaxGeometry(model, h0_mm, &*built) >= kMinParallaxPx) {
+      CombSolution placed;
+      absl::StatusOr<CombFitResult> moved =
+          FitComb(*built, model, wavelength_mm, options, nullptr, &placed, 1.0);
+      if (moved.ok() && moved->converged && CombPsfPlausible(moved->psf_px, model.lens_blur_px) &&
+          moved->explained > comb->explained) {
+        moved->iterations += comb->iterations;
+        comb = std::move(moved);
+        fitted = placed;
+      }
+    }
+  }
   if (!comb.ok() || !comb->converged || !options.model_floats ||
       !FallsShort(*comb, model, options)) {
     return comb;

@@ -117,6 +117,10 @@ struct CombFitOptions {
   // per period it explained 47-78 % of the rows, or 93 % with a PSF of
   // 2.9 px where the limbs showed none, and was refused.
   bool model_floats = true;
+  // The same where the comb alone falls short, first: the glints placed
+  // where their facets stand off the mean cylinder (the threads' relief
+  // parallax, DESIGN.md §3), which moves each by up to h0·sin(φ − v).
+  bool model_parallax = true;
 
   absl::Status Validate() const;
 };
@@ -142,6 +146,9 @@ struct CombFitResult {
   // The share of each period where axial threads' floats hide the comb
   // (0 where they were not modelled).
   double hidden_share = 0.0;
+  // Whether the glints were placed where their facets stand off the mean
+  // cylinder (the threads' relief parallax: FitGlintComb).
+  bool relief_parallax = false;
   std::string message;          // why it is not converged
 };
 

@@ -446,8 +446,9 @@ void ApplyCombFit(const CombFitResult& comb, const CombFitOptions& options,
   estimate->warnings.push_back(absl::StrFormat(
       "max slope and wavelength from the comb of glints fitted pixel by pixel over %d rows "
       "of %d threads (the model explains %.1f%% of their variance; source blur %.2f deg, "
-      "lens blur %.2f px%s)",
+      "lens blur %.2f px%s%s)",
       comb.rows_used, comb.threads_used, 100.0 * comb.explained, comb.blur_rad / kDeg, comb.psf_px,
+      comb.relief_parallax ? "; each glint seen where its facet stands on the threads' relief" : "",
       comb.hidden_share > 0.0
           ? absl::StrFormat("; where the axial threads float over the circumferential ones, "
                             "%.0f%% of each period, their glints hidden",
