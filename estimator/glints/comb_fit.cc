@@ -1643,6 +1643,51 @@ bool FallsShort(const CombFitResult& fit, const GlintModel& model, const CombFit
          !CombPsfPlausible(fit.psf_px, model.lens_blur_px);
 }
 
+// The comb with its glints placed where their facets stand, beside `comb`
+// (and its answer `fitted`) with them on the mean cylinder: the one that
+// explains more kept in their place.
+//
+// The comb places its glints on the mean cylinder; a glint stands where its
+// facet lies, up to h0 off it, and is seen up to h0·sin(φ − v) from there
+// (DESIGN.md §3: the relief's parallax), toward the limb pixels. Where that
+// could move a glint by kMinParallaxPx (a quarter pixel: the comb's own PSF
+// hides less), the fit with the glints so placed, from its own start and,
+// where that falls short too, from the comb's answer, is kept if it
+// converges to a PSF the limbs could show and explains more of the rows. On
+// the independently rendered photographs the comb alone explained 51-84 %
+// at phase angles of 79-107° and read the spacing up to 0.57° off; placed,
+// 84-98 % (a steep weave at 107°: 69 % from its own start, 86 % from the
+// comb's), and the spacing's median error fell from 0.088° to 0.037°, its
+// largest to 0.14°. On renders without the parallax it was the better fit
+// in 7 of 560 random scenes (by chance; all still within three stated
+// errors) and on none of the fixtures. A comb that explains under
+// kMinCombShare of the rows is no comb of these glints (a sawtooth's
+// caustics explain 0.01-0.13), which placing them by a pixel or two does
+// not change.
+void PlaceOnFacets(const GlintModel& model, double wavelength_mm, const CombFitOptions& options,
+                   CombProblemData* data, CombFitResult* comb, CombSolution* fitted) {
+  constexpr double kMinCombShare = 0.2;
+  constexpr double kMinParallaxPx = 0.25;
+  if (!comb->converged || comb->explained < kMinCombShare) return;
+  const double h0_mm = comb->max_slope * comb->wavelength_mm / (2.0 * M_PI);
+  if (AddParallaxGeometry(model, h0_mm, data) < kMinParallaxPx) return;
+  const CombSolution plain = *fitted;
+  const int plain_iterations = comb->iterations;
+  for (const bool from_plain : {false, true}) {
+    CombSolution from = plain, placed;
+    from.p.parallax = 1.0;
+    absl::StatusOr<CombFitResult> moved =
+        FitComb(*data, model, wavelength_mm, options, from_plain ? &from : nullptr, &placed, 1.0);
+    if (moved.ok() && moved->converged && CombPsfPlausible(moved->psf_px, model.lens_blur_px) &&
+        moved->explained > comb->explained) {
+      moved->iterations += plain_iterations;
+      *comb = *std::move(moved);
+      *fitted = placed;
+    }
+    if (comb->relief_parallax && !FallsShort(*comb, model, options)) return;
+  }
+}
+
 }  // namespace
 
 bool CombPsfPlausible(double psf_px, double lens_blur_px) {
@@ -1663,49 +1708,14 @@ absl::StatusOr<CombFitResult> FitGlintComb(const ArcPixels& pixels, const CombRo
       BuildCombProblem(pixels, chosen, model, wavelength_mm, options);
   if (!built.ok()) return built.status();
   CombSolution fitted;
-  absl::StatusOr<CombFitResult> comb =
-      FitComb(*built, model, wavelength_mm, options, nullptr, &fitted);
-  // A comb that explains under kMinCombShare of the rows is no comb of
-  // these glints (a sawtooth's caustics explain 0.01-0.13), which placing
-  // them by a pixel or two does not change.
-  constexpr double kMinCombShare = 0.2;
-  if (comb.ok() && comb->converged && comb->explained >= kMinCombShare && options.model_parallax) {
-    // The comb places its glints on the mean cylinder; a glint stands where
-    // its facet lies, up to h0 off it, and is seen up to h0·sin(φ − v)
-    // from there (DESIGN.md §3: the relief's parallax), toward the limb
-    // pixels. Where that could move a glint by kMinParallaxPx (a quarter
-    // pixel: the comb's own PSF hides less), the fit with the glints so
-    // placed, from its own start, is kept if it converges to a PSF the
-    // limbs could show and explains more of the rows. Both are fitted: on
-    // the independently rendered photographs the comb alone explained
-    // 51-84 % at phase angles of 79-107° and read the spacing up to 0.57°
-    // off; placed, 84-98 %, and the spacing's median error fell from
-    // 0.088° to 0.037°, its largest to 0.14°. On renders without the parallax it was the better
-    // fit in 7 of 560 random scenes (by chance; all still within three
-    // stated errors) and on none of the fixtures.
-    constexpr double kMinParallaxPx = 0.25;
-    const double h0_mm = comb->max_slope * comb->wavelength_mm / (2.0 * M_PI);
-    // From its own start first; where that falls short too, from the comb
-    // alone's answer as well (a steep weave at 107°: 69 % explained from
-    // its start, more from the comb's, whose spacing came 0.35° nearer).
-    if (AddParallaxGeometry(model, h0_mm, &*built) >= kMinParallaxPx) {
-      const CombSolution plain = fitted;
-      const int plain_iterations = comb->iterations;
-      for (const bool from_plain : {false, true}) {
-        CombSolution from = plain, placed;
-        from.p.parallax = 1.0;
-        absl::StatusOr<CombFitResult> moved = FitComb(*built, model, wavelength_mm, options,
-                                                      from_plain ? &from : nullptr, &placed, 1.0);
-        const bool better = moved.ok() && moved->converged &&
-                            CombPsfPlausible(moved->psf_px, model.lens_blur_px) &&
-                            moved->explained > comb->explained;
-        if (better) {
-          moved->iterations += plain_iterations;
-          comb = std::move(moved);
-          fitted = placed;
-        }
-        if (comb->relief_parallax && !FallsShort(*comb, model, options)) break;
-      }
+  absl::StatusOr<CombFitResult> comb;
+  if (options.relief == CombFitOptions::Relief::kOnFacets) {
+    AddParallaxGeometry(model, model.max_slope * wavelength_mm / (2.0 * M_PI), &*built);
+    comb = FitComb(*built, model, wavelength_mm, options, nullptr, &fitted, 1.0);
+  } else {
+    comb = FitComb(*built, model, wavelength_mm, options, nullptr, &fitted);
+    if (options.relief == CombFitOptions::Relief::kCompare && comb.ok()) {
+      PlaceOnFacets(model, wavelength_mm, options, &*built, &*comb, &fitted);
     }
   }
   if (!comb.ok() || !comb->converged || !options.model_floats ||

@@ -117,10 +117,12 @@ struct CombFitOptions {
   // per period it explained 47-78 % of the rows, or 93 % with a PSF of
   // 2.9 px where the limbs showed none, and was refused.
   bool model_floats = true;
-  // The same where the comb alone falls short, first: the glints placed
-  // where their facets stand off the mean cylinder (the threads' relief
-  // parallax, DESIGN.md §3), which moves each by up to h0·sin(φ − v).
-  bool model_parallax = true;
+  // Where the glints are placed (FitGlintComb): on the mean cylinder, or
+  // where their facets stand off it (the threads' relief parallax,
+  // DESIGN.md §3, which moves each by up to h0·sin(φ − v)), or both fitted
+  // and the one that explains more kept.
+  enum class Relief { kCompare, kMeanCylinder, kOnFacets };
+  Relief relief = Relief::kCompare;
 
   absl::Status Validate() const;
 };

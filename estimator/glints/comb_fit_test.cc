@@ -629,9 +629,10 @@ TEST(CombFitTest, WrongPeriodIsNotConfirmed) {
 }
 
 // The comb with its glints placed where their facets stand off the mean
-// cylinder (CombFitOptions::model_parallax) reads the parallax render:
-// measured spacing +0.012° ± 0.22°, λ +0.15 %. Without it the comb fell
-// short and the lobe's fit answered −0.53° ± 0.95°, λ unresolved.
+// cylinder (CombFitOptions::relief) reads the parallax render: measured
+// spacing +0.045° ± 0.22°, λ +0.11 %. With its glints on the mean cylinder
+// alone the comb fell short and the lobe's fit answered −0.53° ± 0.95°,
+// λ unresolved.
 TEST(CombFitTest, TheReliefsParallaxIsModelled) {
   const Rendered& r = ParallaxRender();
   const Acquisition lab = Lab(88.3);
@@ -645,7 +646,7 @@ TEST(CombFitTest, TheReliefsParallaxIsModelled) {
   EXPECT_NEAR(e.wavelength_mm.value / kParallaxWavelengthMm, 1.0, 0.005);
 
   EstimateOptions plain;
-  plain.comb.model_parallax = false;
+  plain.comb.relief = CombFitOptions::Relief::kMeanCylinder;
   absl::StatusOr<Estimate> without = EstimateFromImage(r.image, lab, plain);
   ASSERT_TRUE(without.ok()) << without.status();
   const double plain_error_deg = without->peak_spacing_rad.value / kDeg - r.truth.peak_spacing_deg;

@@ -642,6 +642,7 @@ LatticeReading ReadAxialLattice(const Image& luminance, const CylinderGeometry& 
 struct GlintMemo {
   struct Fit {
     double start_mm = 0.0, max_slope = 0.0;
+    CombFitOptions::Relief relief = CombFitOptions::Relief::kCompare;
     CombRows rows_in, rows_out;  // the rows it was given (none: chosen), and fitted
     absl::StatusOr<CombFitResult> result;
   };
@@ -681,11 +682,16 @@ class CombFitter {
 
  private:
   // On `rows` when it holds any (phased anew at `start`), else on rows
-  // chosen for `start`, which it then holds; as the memo kept it, if it
+  // chosen for `start`, which it then holds, with the glints placed as
+  // `placed` says (else as the options do); as the memo kept it, if it
   // holds this fit.
-  absl::StatusOr<CombFitResult> Fit(const GlintModel& model, double start, CombRows* rows) const {
+  absl::StatusOr<CombFitResult> Fit(
+      const GlintModel& model, double start, CombRows* rows,
+      std::optional<CombFitOptions::Relief> placed = std::nullopt) const {
+    const CombFitOptions::Relief relief = placed.value_or(options_.relief);
     for (const GlintMemo::Fit& f : memo_->fits) {
-      if (f.start_mm == start && f.max_slope == model.max_slope && SameRows(f.rows_in, *rows)) {
+      if (f.start_mm == start && f.max_slope == model.max_slope && f.relief == relief &&
+          SameRows(f.rows_in, *rows)) {
         *rows = f.rows_out;
         return f.result;
       }
@@ -693,9 +699,12 @@ class CombFitter {
     GlintMemo::Fit f;
     f.start_mm = start;
     f.max_slope = model.max_slope;
+    f.relief = relief;
     f.rows_in = *rows;
+    CombFitOptions options = options_;
+    options.relief = relief;
     f.result = FitCombOverLobe(luminance_, cylinder_, projection_, wide_, wide_signals_, model,
-                               start, options_, rows);
+                               start, options, rows);
     f.rows_out = *rows;
     memo_->fits.push_back(f);
     return f.result;
@@ -737,11 +746,16 @@ std::optional<CombFitResult> CombFitter::First(const std::vector<double>& starts
       if (best.reduced_chi2 > 1.0) {
         // Residuals above the start's noise scale: a false optimum, or
         // structure the comb does not model. A second fit started from this
-        // one's max slope and period, on the same rows, tells them apart:
-        // the one that explains more of those rows is kept.
+        // one's max slope and period, on the same rows and with its glints
+        // placed as this one's, tells them apart: the one that explains
+        // more of those rows is kept.
         GlintModel again = model_;
         again.max_slope = best.max_slope;
-        absl::StatusOr<CombFitResult> second = Fit(again, best.wavelength_mm, &rows);
+        using Relief = CombFitOptions::Relief;
+        const Relief placed = options_.relief != Relief::kCompare ? options_.relief
+                              : best.relief_parallax              ? Relief::kOnFacets
+                                                                  : Relief::kMeanCylinder;
+        absl::StatusOr<CombFitResult> second = Fit(again, best.wavelength_mm, &rows, placed);
         if (second.ok() && second->converged && second->explained > best.explained &&
             PsfPlausible(*second) && Near(*second, start, reach, model_.max_slope)) {
           best = *second;
