@@ -309,9 +309,6 @@ void AddSegment(const BinNodes& nd, const CombAt& at, int a, int b, double span,
   }
 }
 
-// The relief parallax's move of a part of `bin` centred at weave phase θ
-// (CombAt::parallax): its facets stand z = (m/k)·sin θ off the mean
-// cylinder (h = m·cos θ is dz/ds), and are seen z·Bin::bins_per_mm away.
 // The share of the thread seen at weave phase θ where the relief folds
 // over itself: measured in phase, the surface at θ is seen at θ + e·sin θ,
 // e = m·tan(φ − v), which turns back where e > 1 (|e| > 1 on the other
@@ -330,6 +327,10 @@ double Unhidden(double theta, double e) {
   return 0.5 * (1.0 + std::tanh((e > 0.0 ? ahead : -ahead) / kFloatEdge));
 }
 
+// The relief parallax's move of a part of `bin` centred at weave phase θ
+// (CombAt::parallax): its facets stand z = (m/k)·sin θ off the mean
+// cylinder (h = m·cos θ is dz/ds), and are seen z·Bin::bins_per_mm away;
+// where the relief folds, the part keeps the share of it seen (Unhidden).
 void SetPartShift(const Bin& bin, const CombAt& at, double theta, BinPart* part) {
   if (at.parallax == 0.0) return;
   // A part the relief hides keeps its share only; the share's own
@@ -921,11 +922,10 @@ double AddParallaxGeometry(const GlintModel& model, double h0_mm, CombProblemDat
   for (Row& row : data->rows) {
     for (Bin& b : row.bins) {
       const double phi = data->phi_mid + b.from_mid;
-      const double rad_per_mm =
-          std::tan(phi - ViewAngleRad(phi, model.projection)) / model.projection.radius_mm;
+      b.tan_view = std::tan(phi - ViewAngleRad(phi, model.projection));
+      const double rad_per_mm = b.tan_view / model.projection.radius_mm;
       const double px_per_rad = data->radius_px * OffsetPerRadian(phi, model.projection);
       b.bins_per_mm = rad_per_mm * px_per_rad / data->px_per_bin;
-      b.tan_view = std::tan(phi - ViewAngleRad(phi, model.projection));
       most = std::max(most, std::fabs(h0_mm * rad_per_mm * px_per_rad));
     }
   }
