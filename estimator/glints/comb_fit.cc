@@ -568,20 +568,28 @@ void SpreadMovedPart(const BinPart& part, double from, double sigma_bins, double
   const double inv = 1.0 / sigma_bins;
   auto pdf = [](double z) { return 0.3989422804014327 * std::exp(-0.5 * z * z); };
   auto cdf = [](double z) { return 0.5 * std::erfc(-z * M_SQRT1_2); };
+  // Bin j spans the edges j ∓ ½, in σ from the part: (j ∓ ½ − at)/σ. Each
+  // edge is shared by two bins, and its Φ and φ are taken once.
+  double b = (lo - 0.5 - at) * inv;
+  double cdf_b = cdf(b), pdf_b = grad != nullptr ? pdf(b) : 0.0;
   for (int j = lo; j <= hi; ++j) {
-    const double u = at - j;  // from bin j's middle
-    const double a = (0.5 - u) * inv, b = (-0.5 - u) * inv;
-    const double w = cdf(a) - cdf(b);
+    const double a = (j + 0.5 - at) * inv;
+    const double cdf_a = cdf(a);
+    const double w = cdf_a - cdf_b;
     (*out)[j] += w * part.value;
-    if (grad == nullptr) continue;
-    const double pa = pdf(a), pb = pdf(b);
-    const double by_u = (pb - pa) * inv;  // dK/du
-    std::array<double, 6>& g = (*grad)[j];
-    for (int k = 0; k < 5; ++k) g[k] += w * part.grad[k];
-    g[0] += part.value * by_u * part.shift_grad[0];
-    g[1] += part.value * by_u * part.shift_grad[1];
-    g[3] += part.value * by_u * part.shift_grad[2];
-    g[5] += (-a * pa + b * pb) * dlog_dl * part.value;
+    if (grad != nullptr) {
+      const double pdf_a = pdf(a);
+      const double by_u = (pdf_b - pdf_a) * inv;  // dK/du, u = at − j
+      std::array<double, 6>& g = (*grad)[j];
+      for (int k = 0; k < 5; ++k) g[k] += w * part.grad[k];
+      g[0] += part.value * by_u * part.shift_grad[0];
+      g[1] += part.value * by_u * part.shift_grad[1];
+      g[3] += part.value * by_u * part.shift_grad[2];
+      g[5] += (-a * pdf_a + b * pdf_b) * dlog_dl * part.value;
+      pdf_b = pdf_a;
+    }
+    b = a;
+    cdf_b = cdf_a;
   }
 }
 
