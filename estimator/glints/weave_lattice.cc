@@ -120,22 +120,32 @@ std::vector<double> PowerOf(const std::vector<float>& row, int size) {
   return power;
 }
 
-// How much of the lattice's power at `cycles` per sample lies in lines that
-// stand at the same azimuths from row to row: each row's amplitude at that
-// frequency, transformed along the rows (in image order), and the share of
-// that power within ±kAlignedBins of zero frequency along the axis. Lines
-// of threads running along the axis (wandering slowly) keep it near 1; a
-// plain weave's circumferential relief, neighbouring threads half a period
-// out of step, puts it at the threads' frequency along the axis; rows of
-// unrelated phase spread it evenly. Arcs' powers add.
+// How the lattice's power at `cycles` per sample is spread over the rows:
+// each row's amplitude at that frequency, transformed along the rows (in
+// image order), and the share of that power within ±kAlignedBins of zero
+// frequency along the axis (`aligned`), and within ±kAlignedBins of the
+// strongest frequency beyond them and of its negative (`checker`). Lines of threads running
+// along the axis (wandering slowly) keep `aligned` near 1; a plain weave's
+// circumferential relief, neighbouring threads half a period out of step,
+// puts the power at the frequency with which those threads alternate along
+// the axis (`checker`); rows of unrelated phase spread it evenly, each
+// window holding about (2·kAlignedBins + 1)/rows of it. The arcs' powers
+// add (every arc is read along the same rows).
 constexpr int kAlignedBins = 2;
 
-double AlignedShare(const std::vector<std::vector<std::vector<float>>>& arcs, double cycles) {
-  double near = 0.0;
-  double total = 0.0;
+struct RowSpread {
+  double aligned = 0.0;
+  double checker = 0.0;
+};
+
+RowSpread SpreadOverRows(const std::vector<std::vector<std::vector<float>>>& arcs, double cycles) {
+  std::vector<double> along_power;
+  double reach = 0.0;
   for (const std::vector<std::vector<float>>& rows : arcs) {
     if (rows.size() < 8) continue;
     const int size = cv::getOptimalDFTSize(static_cast<int>(rows.size()));
+    if (!along_power.empty() && static_cast<int>(along_power.size()) != size) continue;
+    along_power.resize(size, 0.0);
     cv::Mat amplitude = cv::Mat::zeros(1, size, CV_64FC2);
     // The frequency's phasors, the same for every row of the arc.
     std::vector<std::complex<double>> phasor;
@@ -150,15 +160,35 @@ double AlignedShare(const std::vector<std::vector<std::vector<float>>>& arcs, do
     }
     cv::Mat along;
     cv::dft(amplitude, along, cv::DFT_COMPLEX_OUTPUT);
-    const double reach = kAlignedBins * static_cast<double>(size) / rows.size();
+    reach = kAlignedBins * static_cast<double>(size) / rows.size();
     for (int j = 0; j < size; ++j) {
       const cv::Vec2d c = along.at<cv::Vec2d>(0, j);
-      const double power = c[0] * c[0] + c[1] * c[1];
-      total += power;
-      if (std::min(j, size - j) <= reach) near += power;
+      along_power[j] += c[0] * c[0] + c[1] * c[1];
     }
   }
-  return total > 0.0 ? near / total : 0.0;
+  RowSpread spread;
+  const int size = static_cast<int>(along_power.size());
+  double total = 0.0;
+  for (double p : along_power) total += p;
+  if (!(total > 0.0)) return spread;
+  // Power within ±reach bins of bin j (circularly).
+  const int half = static_cast<int>(std::floor(reach));
+  auto window = [&](int j) {
+    double sum = 0.0;
+    for (int d = -half; d <= half; ++d) sum += along_power[((j + d) % size + size) % size];
+    return sum;
+  };
+  spread.aligned = window(0) / total;
+  // Rows that alternate put their power at ±their frequency alike (a real
+  // pattern of signs along the axis): both windows count, once each where
+  // they meet at the Nyquist frequency.
+  for (int j = 2 * half + 1; 2 * j <= size; ++j) {
+    const int overlap = std::max(0, 2 * half + 1 - (size - 2 * j));
+    double both = window(j) + window(size - j);
+    for (int b = 0; b < overlap; ++b) both -= along_power[j + half - b];
+    spread.checker = std::max(spread.checker, both / total);
+  }
+  return spread;
 }
 
 // The local maximum of `power` nearest `k` within ±reach bins, refined by a
@@ -451,8 +481,10 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(
         result.pitches_in_arc, options.min_pitches);
     return result;
   }
-  result.aligned = AlignedShare(windowed, k_peak / size);
-  result.half_aligned = AlignedShare(windowed, 0.5 * k_peak / size);
+  const RowSpread spread = SpreadOverRows(windowed, k_peak / size);
+  result.aligned = spread.aligned;
+  result.checker = spread.checker;
+  result.half_aligned = SpreadOverRows(windowed, 0.5 * k_peak / size).aligned;
   result.found = true;
   result.pitch_mm = pitch_samples * step_mm;
   result.pitch_stderr_mm = result.pitch_mm * k_se / k_peak;

@@ -18,7 +18,7 @@
 // fundamental), refined from every harmonic that stands out; its standard
 // error is the jackknife's over groups of rows. Whether the lattice is lines
 // along the axis at all, and not a plain weave's relief repeating with λ
-// itself, is measured across the rows (AxialPitch::aligned).
+// itself, is measured across the rows (AxialPitch::aligned, ::checker).
 #ifndef WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 #define WEAVEFIT_ESTIMATOR_GLINTS_WEAVE_LATTICE_H_
 
@@ -83,7 +83,13 @@ struct AxialPitch {
   // weave's circumferential relief, whose neighbouring threads are half a
   // period out of step and whose period along a row is λ itself.
   double aligned = 0.0;
-  // The same at half the fundamental frequency.
+  // The largest share of it in one narrow band of frequencies along the
+  // axis away from zero (0-1): high where neighbouring rows of threads
+  // alternate (a plain weave's relief, half a period out of step from one
+  // circumferential thread to the next), about 5/rows or a few times that
+  // for rows of unrelated phase.
+  double checker = 0.0;
+  // The share in lines at half the fundamental frequency.
   double half_aligned = 0.0;
   double pitches_in_arc = 0.0;   // how many pitches the analysed arc holds
   int rows_used = 0;

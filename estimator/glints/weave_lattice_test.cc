@@ -121,6 +121,33 @@ TEST(AxialPitchTest, LinesAlongTheAxisAreToldFromACheckerboard) {
   EXPECT_LT(checker->aligned, 0.02);
   EXPECT_LT(unrelated->aligned, 0.2);
   EXPECT_NEAR(checker->pitch_mm, pitch, 0.005 * pitch);
+  // Rows that alternate hold their power at the frequency of their
+  // alternation along the axis (here every row: the Nyquist frequency);
+  // rows of unrelated phase spread it.
+  EXPECT_GT(checker->checker, 0.9);
+  EXPECT_LT(along->checker, 0.1);
+  EXPECT_LT(unrelated->checker, 0.3);
+}
+
+// Threads two rows wide that alternate every thread: the power lies at a
+// quarter of the rows' frequency along the axis, and at its negative.
+TEST(AxialPitchTest, ThreadsAlternatingAlongTheAxisAreACheckerboard) {
+  const double pitch = 0.9;
+  ArcSignals s = Lines(pitch, 64, 3000, 0.05, 0.002, 0.0, 4, 0.0);
+  ArcSignals shifted = Lines(pitch, 64, 3000, 0.05, 0.002, 0.0, 5, 0.5);
+  for (int r = 0; r < 64; ++r) {
+    if ((r / 2) % 2 == 0) continue;
+    // Rows of the odd threads half a pitch along (as shifted's odd rows).
+    const int from = 2 * (r / 4) + 1;
+    std::copy(shifted.Row(from), shifted.Row(from) + 3000,
+              s.values.begin() + static_cast<std::ptrdiff_t>(r) * 3000);
+  }
+  absl::StatusOr<AxialPitch> p = EstimateAxialPitch({s}, kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  ASSERT_TRUE(p->found) << p->reason;
+  EXPECT_NEAR(p->pitch_mm, pitch, 0.005 * pitch);
+  EXPECT_LT(p->aligned, 0.05);
+  EXPECT_GT(p->checker, 0.6);
 }
 
 // A plain weave's period at half the lines' frequency lies in a
@@ -228,6 +255,48 @@ TEST(AxialPitchTest, ASawtoothsWavelengthComesFromItsAxialThreads) {
   ASSERT_TRUE(e->amplitude_mm.resolved);
   EXPECT_LE(std::fabs(e->amplitude_mm.value - scene.amplitude_mm),
             3.0 * e->amplitude_mm.stderr_value);
+}
+
+// A stray-lit plain weave shows its relief: each circumferential thread's
+// shading repeats with λ, its neighbours' half a period out of step. A
+// sawtooth's glints do not repeat along the arc, and without axial threads
+// glinting the relief alone gives its period, with an error that counts
+// the pattern's drift of phase; without stray light nothing does.
+TEST(AxialPitchTest, AStrayLitSawtoothsWavelengthComesFromItsRelief) {
+  RenderScene scene;
+  scene.width_px = 640;
+  scene.height_px = 400;
+  scene.model = ProfileModel::kSawtooth;
+  scene.wavelength_mm = 1.6;
+  scene.amplitude_mm = 0.16;  // m = 0.4
+  scene.phase_angle_deg = -34.0;
+  scene.stray_light = 0.06;
+  scene.stray_texture = 0.5;
+  scene.seed = 11;
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = scene.phase_angle_deg * M_PI / 180.0;
+  acquisition.cylinder_diameter_mm = scene.diameter_mm;
+  absl::StatusOr<Rendered> r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  absl::StatusOr<Estimate> e = EstimateFromImage(r->image, acquisition, {});
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_EQ(e->model, ProfileModel::kSawtooth);
+  ASSERT_TRUE(e->wavelength_mm.resolved);
+  EXPECT_LE(std::fabs(e->wavelength_mm.value - scene.wavelength_mm),
+            3.0 * e->wavelength_mm.stderr_value);
+  EXPECT_NEAR(e->wavelength_mm.value, scene.wavelength_mm, 0.03 * scene.wavelength_mm);
+  EXPECT_LT(e->wavelength_mm.stderr_value, 0.05 * scene.wavelength_mm);
+  bool said = false;
+  for (const std::string& w : e->warnings)
+    said = said || w.find("weave's relief") != std::string::npos;
+  EXPECT_TRUE(said);
+
+  scene.stray_light = 0.0;
+  r = RenderPhotograph(scene);
+  ASSERT_TRUE(r.ok()) << r.status();
+  e = EstimateFromImage(r->image, acquisition, {});
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_FALSE(e->wavelength_mm.resolved);
 }
 
 }  // namespace

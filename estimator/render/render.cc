@@ -623,7 +623,9 @@ absl::StatusOr<Rendered> RenderPhotograph(const RenderScene& scene) {
   const double sigma = std::hypot(sampler.sigma_beta(), lens_rad);
   truth.split_resolvable = scene.model != ProfileModel::kSmooth &&
                            PeakSpacingRad(m) > 2.0 * 2.355 * sigma;
-  truth.period_resolvable = truth.px_per_period >= 4.0;
+  // A smooth sample has no thread period to resolve (its thread quantities
+  // are not the sample's).
+  truth.period_resolvable = scene.model != ProfileModel::kSmooth && truth.px_per_period >= 4.0;
   return out;
 }
 

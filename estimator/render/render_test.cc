@@ -107,6 +107,7 @@ TEST(RenderTest, TruthFields) {
   EXPECT_EQ(r.truth.max_slope, 0.0);
   EXPECT_EQ(r.truth.peak_spacing_deg, 0.0);
   EXPECT_FALSE(r.truth.split_resolvable);
+  EXPECT_FALSE(r.truth.period_resolvable);
 
   // Explicit geometry, a period below 4 px and a split below the blur.
   scene = TinyScene();
