@@ -3,22 +3,21 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Dense>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <opencv2/core/utility.hpp>
 #include <optional>
 #include <vector>
-
-#include <opencv2/core/utility.hpp>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_format.h"
 #include "estimator/cylinder/azimuth_mapping.h"
 #include "estimator/stats/cluster_covariance.h"
 #include "estimator/stats/median.h"
+#include "estimator/stats/normal_table.h"
 
 namespace weavefit {
 namespace {
@@ -159,6 +158,8 @@ struct BinNodes {
   double dg[kMaxNodes][3], dh[kMaxNodes][3];  // by m, λ, c
   int side[kMaxNodes];                         // Beyond(g, σ)
   double theta[kMaxNodes];                     // the weave phase k·(s + c)
+  double cos_t[kMaxNodes], sin_t[kMaxNodes];   // its cosine and sine
+  double cos_half = 1.0, sin_half = 0.0;       // of half the step between nodes
 };
 
 // A node more than 8σ beyond the mirror: +1 past it, −1 short of it, 0 near.
@@ -184,7 +185,12 @@ bool ReadBinNodes(const Row& row, const Bin& bin, int stride, const CombAt& at, 
   const double step =
       nodes > 1 ? at.k * (row.node_s[bin.first_node + stride] - row.node_s[bin.first_node]) : 0.0;
   const double cos_step = std::cos(step), sin_step = std::sin(step);
-  double cos_t[kMaxNodes], sin_t[kMaxNodes];
+  if (at.parallax != 0.0) {
+    out->cos_half = std::cos(0.5 * step);
+    out->sin_half = std::sin(0.5 * step);
+  }
+  double* cos_t = out->cos_t;
+  double* sin_t = out->sin_t;
   cos_t[0] = std::cos(theta0);
   sin_t[0] = std::sin(theta0);
   double h_lo = at.m * cos_t[0], h_hi = h_lo;
@@ -217,7 +223,7 @@ bool ReadBinNodes(const Row& row, const Bin& bin, int stride, const CombAt& at, 
     below = below && side[n] < 0;
   }
   if (above || below) return false;
-  const double norm = 1.0 / (at.sigma * std::sqrt(2.0 * M_PI));
+  const double inv_sigma = 1.0 / at.sigma;
   for (int n = 0; n < nodes; ++n) {
     // Beyond 8σ the Gaussian is below 1e-14 of its peak and its integral
     // ±1/2 to 1e-15 (BinMean drops the sub-intervals between such nodes).
@@ -226,9 +232,9 @@ bool ReadBinNodes(const Row& row, const Bin& bin, int stride, const CombAt& at, 
       out->cdf[n] = side[n] > 0 ? 0.5 : -0.5;
       continue;
     }
-    const double z = out->g[n] / at.sigma;
-    out->pdf[n] = norm * std::exp(-0.5 * z * z);
-    out->cdf[n] = 0.5 * std::erf(z * M_SQRT1_2);
+    const NormalAt normal = StandardNormal(out->g[n] * inv_sigma);
+    out->pdf[n] = normal.pdf * inv_sigma;
+    out->cdf[n] = normal.cdf - 0.5;
   }
   if (!at.gradient) return true;
   for (int n = 0; n < nodes; ++n) {
@@ -328,10 +334,11 @@ double Unhidden(double theta, double e) {
 }
 
 // The relief parallax's move of a part of `bin` centred at weave phase θ
-// (CombAt::parallax): its facets stand z = (m/k)·sin θ off the mean
-// cylinder (h = m·cos θ is dz/ds), and are seen z·Bin::bins_per_mm away;
-// where the relief folds, the part keeps the share of it seen (Unhidden).
-void SetPartShift(const Bin& bin, const CombAt& at, double theta, BinPart* part) {
+// (`theta`, with its cosine and sine; CombAt::parallax): its facets stand z = (m/k)·sin θ off the
+// mean cylinder (h = m·cos θ is dz/ds), and are seen z·Bin::bins_per_mm away; where the relief
+// folds, the part keeps the share of it seen (Unhidden).
+void SetPartShift(const Bin& bin, const CombAt& at, double theta, double cos_t, double sin_t,
+                  BinPart* part) {
   if (at.parallax == 0.0) return;
   // A part the relief hides keeps its share only; the share's own
   // derivatives are left out (its edge is narrow, and rarely on a glint).
@@ -341,7 +348,6 @@ void SetPartShift(const Bin& bin, const CombAt& at, double theta, BinPart* part)
     for (double& g : part->grad) g *= seen;
   }
   const double per_mm = at.parallax * bin.bins_per_mm;
-  const double sin_t = std::sin(theta), cos_t = std::cos(theta);
   const double z = at.m / at.k * sin_t;
   part->shift = per_mm * z;
   part->shift_grad[0] = per_mm * sin_t / at.k;  // by m
@@ -394,7 +400,7 @@ double BinMean(const Row& row, const Bin& bin, int stride, const CombAt& at, dou
         out.grad[p] =
             bin.weight * (4.0 * (fine[n - 2].grad[p] + fine[n - 1].grad[p]) - pair.grad[p]) / 3.0;
       }
-      SetPartShift(bin, at, nd.theta[n - 1], &out);
+      SetPartShift(bin, at, nd.theta[n - 1], nd.cos_t[n - 1], nd.sin_t[n - 1], &out);
     }
     sum = (4.0 * sum - coarse) / 3.0;
     for (int p = 0; p < 5; ++p) grad[p] = (4.0 * grad[p] - coarse_grad[p]) / 3.0;
@@ -402,7 +408,10 @@ double BinMean(const Row& row, const Bin& bin, int stride, const CombAt& at, dou
     for (int n = 0; n + 1 < nodes; ++n) {
       parts[n].value = bin.weight * fine[n].value;
       for (int p = 0; p < 5; ++p) parts[n].grad[p] = bin.weight * fine[n].grad[p];
-      SetPartShift(bin, at, 0.5 * (nd.theta[n] + nd.theta[n + 1]), &parts[n]);
+      // The middle of nodes n and n + 1: node n's turned by half the step.
+      SetPartShift(bin, at, 0.5 * (nd.theta[n] + nd.theta[n + 1]),
+                   nd.cos_t[n] * nd.cos_half - nd.sin_t[n] * nd.sin_half,
+                   nd.sin_t[n] * nd.cos_half + nd.cos_t[n] * nd.sin_half, &parts[n]);
     }
   }
   for (int p = 0; p < 5; ++p) grad[p] *= bin.weight;
@@ -566,19 +575,19 @@ void SpreadMovedPart(const BinPart& part, double from, double sigma_bins, double
   const int lo = std::max(0, static_cast<int>(std::floor(at - reach)));
   const int hi = std::min(n - 1, static_cast<int>(std::ceil(at + reach)));
   const double inv = 1.0 / sigma_bins;
-  auto pdf = [](double z) { return 0.3989422804014327 * std::exp(-0.5 * z * z); };
-  auto cdf = [](double z) { return 0.5 * std::erfc(-z * M_SQRT1_2); };
   // Bin j spans the edges j ∓ ½, in σ from the part: (j ∓ ½ − at)/σ. Each
   // edge is shared by two bins, and its Φ and φ are taken once.
   double b = (lo - 0.5 - at) * inv;
-  double cdf_b = cdf(b), pdf_b = grad != nullptr ? pdf(b) : 0.0;
+  const NormalAt at_b = StandardNormal(b);
+  double cdf_b = at_b.cdf, pdf_b = at_b.pdf;
   for (int j = lo; j <= hi; ++j) {
     const double a = (j + 0.5 - at) * inv;
-    const double cdf_a = cdf(a);
+    const NormalAt at_a = StandardNormal(a);
+    const double cdf_a = at_a.cdf;
     const double w = cdf_a - cdf_b;
     (*out)[j] += w * part.value;
     if (grad != nullptr) {
-      const double pdf_a = pdf(a);
+      const double pdf_a = at_a.pdf;
       const double by_u = (pdf_b - pdf_a) * inv;  // dK/du, u = at − j
       std::array<double, 6>& g = (*grad)[j];
       for (int k = 0; k < 5; ++k) g[k] += w * part.grad[k];
