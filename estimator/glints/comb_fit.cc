@@ -3,14 +3,16 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Dense>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <opencv2/core/utility.hpp>
 #include <optional>
 #include <vector>
+
+#include <opencv2/core/utility.hpp>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_format.h"
@@ -334,9 +336,10 @@ double Unhidden(double theta, double e) {
 }
 
 // The relief parallax's move of a part of `bin` centred at weave phase θ
-// (`theta`, with its cosine and sine; CombAt::parallax): its facets stand z = (m/k)·sin θ off the
-// mean cylinder (h = m·cos θ is dz/ds), and are seen z·Bin::bins_per_mm away; where the relief
-// folds, the part keeps the share of it seen (Unhidden).
+// (`theta`, with its cosine and sine; CombAt::parallax): its facets stand
+// z = (m/k)·sin θ off the mean cylinder (h = m·cos θ is dz/ds), and are
+// seen z·Bin::bins_per_mm away; where the relief folds, the part keeps the
+// share of it seen (Unhidden).
 void SetPartShift(const Bin& bin, const CombAt& at, double theta, double cos_t, double sin_t,
                   BinPart* part) {
   if (at.parallax == 0.0) return;

@@ -124,13 +124,13 @@ std::vector<double> PowerOf(const std::vector<float>& row, int size) {
 // each row's amplitude at that frequency, transformed along the rows (in
 // image order), and the share of that power within ±kAlignedBins of zero
 // frequency along the axis (`aligned`), and within ±kAlignedBins of the
-// strongest frequency beyond them and of its negative (`checker`). Lines of threads running
-// along the axis (wandering slowly) keep `aligned` near 1; a plain weave's
-// circumferential relief, neighbouring threads half a period out of step,
-// puts the power at the frequency with which those threads alternate along
-// the axis (`checker`); rows of unrelated phase spread it evenly, each
-// window holding about (2·kAlignedBins + 1)/rows of it. The arcs' powers
-// add (every arc is read along the same rows).
+// strongest frequency beyond them and of its negative (`checker`). Lines
+// of threads running along the axis (wandering slowly) keep `aligned` near
+// 1; a plain weave's circumferential relief, neighbouring threads half a
+// period out of step, puts the power at the frequency with which those
+// threads alternate along the axis (`checker`); rows of unrelated phase
+// spread it evenly, each window holding about (2·kAlignedBins + 1)/rows of
+// it. The arcs' powers add (every arc is read along the same rows).
 constexpr int kAlignedBins = 2;
 
 struct RowSpread {
