@@ -797,11 +797,16 @@ std::optional<CombFitResult> CombFitter::First(const std::vector<double>& starts
   return std::nullopt;
 }
 
+// Where a lattice was read, in a warning's words.
+const char* LatticeWhere(const LatticeReading& lattice) {
+  return lattice.beside_lobe ? "beside the lobe" : "across the lobe";
+}
+
 // What the lattice of glint lines said, for a wavelength left unresolved.
 std::string LatticeWords(const LatticeReading& lattice) {
   const AxialPitch& p = lattice.pitch;
   if (!p.found) return p.reason;
-  const char* where = lattice.beside_lobe ? "beside the lobe" : "across the lobe";
+  const char* where = LatticeWhere(lattice);
   if (!LinesAlongTheAxis(p)) {
     return absl::StrFormat(
         "%s a pattern repeats every %.3f mm, but neither in lines along the axis (%.0f%% of "
@@ -975,12 +980,12 @@ void ApplyLatticePeriod(const LatticeReading& lattice, const Acquisition& acquis
 // pattern's phase may drift across the arc read: the relief shades a facet
 // by its height (crests lit, troughs shaded) and by its tilt to the line of
 // sight, a quarter period out of step with the height, whose share changes
-// sign across the line of sight, so the pattern's phase turns by less than half a period
-// from one end of the arc to the other, and its pitch over N pitches of arc
-// may be off by up to 1/(2N), taken as uniform (σ = 1/(2√3·N)). On
-// weavefit's renders of stray-lit plain weaves (lab random scenes) the
-// drift came to −0.74 to +0.27 of a period, mostly within ±0.2; the pitch
-// short in most. It depends on the photograph's geometry, not the sample's.
+// sign across the line of sight, so the pattern's phase turns by less than
+// half a period from one end of the arc to the other, and its pitch over N
+// pitches of arc may be off by up to 1/(2N), taken as uniform
+// (σ = 1/(2√3·N)). On weavefit's renders of stray-lit plain weaves (lab
+// random scenes) the drift came to −0.74 to +0.27 of a period, mostly
+// within ±0.2; the pitch short in most. It depends on the photograph's geometry, not the sample's.
 void ApplyReliefPeriod(const LatticeReading& lattice, const Acquisition& acquisition,
                        const std::string& comb_failure, Estimate* estimate) {
   const LimbErrors limbs = ProfileLimbErrors(*estimate, acquisition);
@@ -999,8 +1004,7 @@ void ApplyReliefPeriod(const LatticeReading& lattice, const Acquisition& acquisi
       "so the period is the pattern's own; its error counts a drift of the pattern's phase of "
       "up to half a period over the %.1f periods read, as the relief's shading turns from its "
       "height's to its tilt's; the comb of glints did not confirm it%s",
-      lattice.beside_lobe ? "beside the lobe" : "across the lobe", p.pitch_mm, p.rows_used,
-      100.0 * p.checker, p.pitches_in_arc,
+      LatticeWhere(lattice), p.pitch_mm, p.rows_used, 100.0 * p.checker, p.pitches_in_arc,
       comb_failure.empty() ? std::string() : absl::StrCat(" (", comb_failure, ")")));
 }
 
