@@ -385,14 +385,136 @@ std::vector<LocalPitch> LocalPitches(const std::vector<ArcSignals>& arcs,
   return local;
 }
 
+// The rows' power spectra, clamped and windowed (EstimateAxialPitch), summed
+// in groups of rows for the jackknife.
+struct RowPower {
+  int n = 0;             // the longest arc's samples
+  double step_mm = 0.0;  // its step
+  int size = 0;          // the transform's length
+  int rows = 0;
+  std::vector<std::vector<double>> group;
+  std::vector<double> total;
+  std::vector<std::vector<std::vector<float>>> clamped;
+  std::vector<std::vector<std::vector<float>>> windowed;
+};
+
+RowPower SumRowPowers(const std::vector<ArcSignals>& arcs, double pixel_noise,
+                      const AxialPitchOptions& options,
+                      const std::vector<std::pair<double, double>>& leave_out) {
+  RowPower rp;
+  for (const ArcSignals& a : arcs) {
+    if (a.rows.empty()) continue;
+    if (a.num_samples > rp.n) rp.step_mm = a.StepMm();
+    rp.n = std::max(rp.n, a.num_samples);
+    rp.rows += static_cast<int>(a.rows.size());
+  }
+  rp.size = cv::getOptimalDFTSize(2 * rp.n);
+  const int groups = std::clamp(rp.rows / 2, 2, options.jackknife_groups);
+  rp.group.assign(groups, std::vector<double>(rp.size / 2 + 1, 0.0));
+  // Noise of a sample interpolated between pixels is at most one pixel's.
+  const double noise = std::max(pixel_noise, 1e-9);
+  int count = 0;
+  for (const ArcSignals& a : arcs) {
+    rp.clamped.emplace_back();
+    rp.windowed.emplace_back();
+    for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
+      rp.clamped.back().push_back(
+          ClampedRow(a, static_cast<int>(i), noise, options.clamp_sigmas, leave_out));
+      rp.windowed.back().push_back(Windowed(rp.clamped.back().back(), 0, a.num_samples));
+      const std::vector<double> p = PowerOf(rp.windowed.back().back(), rp.size);
+      std::vector<double>& g = rp.group[count % groups];
+      for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
+    }
+  }
+  rp.total.assign(rp.size / 2 + 1, 0.0);
+  for (const std::vector<double>& g : rp.group) {
+    for (std::size_t k = 0; k < rp.total.size(); ++k) rp.total[k] += g[k];
+  }
+  return rp;
+}
+
+// The lattice over pitches from `shortest` samples up to the longest arc
+// over min_pitches: its fundamental, contrast, spread over the rows and
+// kind, and whether it is found.
+AxialPitch ReadLattice(const RowPower& rp, const std::vector<ArcSignals>& arcs, double shortest,
+                       const AxialPitchOptions& options) {
+  AxialPitch result;
+  result.rows_used = rp.rows;
+  const int size = rp.size;
+  const int k_lo = std::max(2, static_cast<int>(std::ceil(size * options.min_pitches / rp.n)));
+  const int k_hi = std::min(size / 2 - 2, static_cast<int>(std::floor(size / shortest)));
+  if (k_hi <= k_lo + 2) {
+    result.reason = "the lit arc is too short to resolve a thread pitch";
+    return result;
+  }
+  const Spectrum spectrum = MakeSpectrum(rp.total, k_lo, k_hi);
+  const double k0 = FundamentalBin(spectrum);
+  result.contrast = k0 > 0.0 ? spectrum.Near(k0) + 1.0 : 0.0;
+  auto too_weak = [&](const std::string& rows) {
+    return absl::StrFormat(
+        "no lattice of thread glints: the rows' spectra peak at most %.1f times above their "
+        "floor, %.0f needed (%.0f where the rows alternate from one circumferential thread to "
+        "the next, as a plain weave's do%s)",
+        result.contrast, options.min_contrast, options.min_alternating_contrast, rows);
+  };
+  if (k0 < 0.0 ||
+      result.contrast < std::min(options.min_contrast, options.min_alternating_contrast)) {
+    result.reason = too_weak("");
+    return result;
+  }
+  const bool strong = result.contrast >= options.min_contrast;
+  result.half_contrast = spectrum.Near(0.5 * k0) + 1.0;
+  // The harmonics that place the fundamental stand out as far as a lattice
+  // must.
+  const double min_excess =
+      (strong ? options.min_contrast : options.min_alternating_contrast) - 1.0;
+  const double k_peak = RefineFundamental(rp.total, spectrum, k0, min_excess);
+  // Jackknife over the groups of rows, the harmonics chosen once.
+  const int groups = static_cast<int>(rp.group.size());
+  std::vector<double> k_without(groups);
+  std::vector<double> rest(rp.total.size());
+  for (int g = 0; g < groups; ++g) {
+    for (std::size_t k = 0; k < rest.size(); ++k) rest[k] = rp.total[k] - rp.group[g][k];
+    k_without[g] = RefineFundamental(rest, spectrum, k0, min_excess);
+  }
+  const double k_se = JackknifeError(k_without);
+  const double pitch_samples = size / k_peak;
+  result.pitches_in_arc = rp.n / pitch_samples;
+  const RowSpread spread = SpreadOverRows(rp.windowed, k_peak / size);
+  result.aligned = spread.aligned;
+  result.checker = spread.checker;
+  result.half_aligned = SpreadOverRows(rp.windowed, 0.5 * k_peak / size).aligned;
+  result.lines = result.aligned >= options.min_aligned_share;
+  result.alternating = !result.lines && result.checker >= options.min_checker_share;
+  if (result.pitches_in_arc < options.min_pitches) {
+    result.reason = absl::StrFormat(
+        "the lit arc holds only %.1f pitches of the thread glints' lattice, %.0f needed",
+        result.pitches_in_arc, options.min_pitches);
+    return result;
+  }
+  if (!strong && !result.alternating) {
+    result.reason =
+        too_weak(absl::StrFormat("; these hold %.0f%% of their power so", 100.0 * result.checker));
+    return result;
+  }
+  result.found = true;
+  result.pitch_mm = pitch_samples * rp.step_mm;
+  result.pitch_stderr_mm = result.pitch_mm * k_se / k_peak;
+  result.local = LocalPitches(arcs, rp.clamped, pitch_samples, groups, min_excess);
+  return result;
+}
+
 }  // namespace
 
 absl::Status AxialPitchOptions::Validate() const {
   if (!(min_px_per_pitch > 0.0) || !(min_pitches >= 2.0) || !(clamp_sigmas > 0.0) ||
-      !(min_contrast > 1.0) || jackknife_groups < 2) {
+      !(min_contrast > 1.0) || !(min_alternating_contrast > 1.0) ||
+      !(min_aligned_share > 0.0 && min_aligned_share <= 1.0) ||
+      !(min_checker_share > 0.0 && min_checker_share <= 1.0) || jackknife_groups < 2) {
     return absl::InvalidArgumentError(
         "axial pitch options: min_px_per_pitch and clamp_sigmas must be positive, min_pitches at "
-        "least 2, min_contrast above 1 and jackknife_groups at least 2");
+        "least 2, min_contrast and min_alternating_contrast above 1, min_aligned_share and "
+        "min_checker_share within (0, 1] and jackknife_groups at least 2");
   }
   return absl::OkStatus();
 }
@@ -402,94 +524,25 @@ absl::StatusOr<AxialPitch> EstimateAxialPitch(
     const AxialPitchOptions& options, const std::vector<std::pair<double, double>>& leave_out) {
   if (absl::Status s = options.Validate(); !s.ok()) return s;
   if (!(step_px > 0.0)) return absl::InvalidArgumentError("axial pitch: step_px must be positive");
-  AxialPitch result;
   int n = 0;  // the longest arc's samples
-  double step_mm = 0.0;
+  int rows = 0;
   for (const ArcSignals& a : arcs) {
-    if (a.rows.empty()) continue;
-    if (a.num_samples > n) step_mm = a.StepMm();
-    n = std::max(n, a.num_samples);
-    result.rows_used += static_cast<int>(a.rows.size());
+    n = std::max(n, a.rows.empty() ? 0 : a.num_samples);
+    rows += static_cast<int>(a.rows.size());
   }
   // Pitches from min_px_per_pitch up to the longest arc over min_pitches, in
   // samples.
   const double shortest = options.min_px_per_pitch / step_px;
-  const double longest = n / options.min_pitches;
-  if (result.rows_used < 2 || longest <= shortest) {
-    result.reason = absl::StrFormat(
+  if (rows < 2 || n / options.min_pitches <= shortest) {
+    AxialPitch none;
+    none.rows_used = rows;
+    none.reason = absl::StrFormat(
         "the lit arc beside the lobe (%d samples at most) is too short to hold %.0f thread "
         "pitches",
         n, options.min_pitches);
-    return result;
+    return none;
   }
-  const int size = cv::getOptimalDFTSize(2 * n);
-  const int groups = std::clamp(result.rows_used / 2, 2, options.jackknife_groups);
-  std::vector<std::vector<double>> group_power(groups, std::vector<double>(size / 2 + 1, 0.0));
-  // Noise of a sample interpolated between pixels is at most one pixel's.
-  const double noise = std::max(pixel_noise, 1e-9);
-  int count = 0;
-  std::vector<std::vector<std::vector<float>>> clamped;
-  std::vector<std::vector<std::vector<float>>> windowed;
-  for (const ArcSignals& a : arcs) {
-    clamped.emplace_back();
-    windowed.emplace_back();
-    for (std::size_t i = 0; i < a.rows.size(); ++i, ++count) {
-      clamped.back().push_back(
-          ClampedRow(a, static_cast<int>(i), noise, options.clamp_sigmas, leave_out));
-      windowed.back().push_back(Windowed(clamped.back().back(), 0, a.num_samples));
-      const std::vector<double> p = PowerOf(windowed.back().back(), size);
-      std::vector<double>& g = group_power[count % groups];
-      for (std::size_t k = 0; k < p.size(); ++k) g[k] += p[k];
-    }
-  }
-  std::vector<double> total(size / 2 + 1, 0.0);
-  for (const std::vector<double>& g : group_power) {
-    for (std::size_t k = 0; k < total.size(); ++k) total[k] += g[k];
-  }
-  const int k_lo = std::max(2, static_cast<int>(std::ceil(size / longest)));
-  const int k_hi = std::min(size / 2 - 2, static_cast<int>(std::floor(size / shortest)));
-  if (k_hi <= k_lo + 2) {
-    result.reason = "the lit arc is too short to resolve a thread pitch";
-    return result;
-  }
-  const Spectrum spectrum = MakeSpectrum(total, k_lo, k_hi);
-  const double k0 = FundamentalBin(spectrum);
-  result.contrast = k0 > 0.0 ? spectrum.Near(k0) + 1.0 : 0.0;
-  if (k0 < 0.0 || result.contrast < options.min_contrast) {
-    result.reason = absl::StrFormat(
-        "no lattice of thread glints: the rows' spectra peak at most %.1f times above their "
-        "floor, %.0f needed",
-        result.contrast, options.min_contrast);
-    return result;
-  }
-  result.half_contrast = spectrum.Near(0.5 * k0) + 1.0;
-  const double min_excess = options.min_contrast - 1.0;
-  const double k_peak = RefineFundamental(total, spectrum, k0, min_excess);
-  // Jackknife over the groups of rows, the harmonics chosen once.
-  std::vector<double> k_without(groups);
-  std::vector<double> rest(total.size());
-  for (int g = 0; g < groups; ++g) {
-    for (std::size_t k = 0; k < total.size(); ++k) rest[k] = total[k] - group_power[g][k];
-    k_without[g] = RefineFundamental(rest, spectrum, k0, min_excess);
-  }
-  const double k_se = JackknifeError(k_without);
-  const double pitch_samples = size / k_peak;
-  result.pitches_in_arc = n / pitch_samples;
-  if (result.pitches_in_arc < options.min_pitches) {
-    result.reason = absl::StrFormat(
-        "the lit arc holds only %.1f pitches of the thread glints' lattice, %.0f needed",
-        result.pitches_in_arc, options.min_pitches);
-    return result;
-  }
-  const RowSpread spread = SpreadOverRows(windowed, k_peak / size);
-  result.aligned = spread.aligned;
-  result.checker = spread.checker;
-  result.half_aligned = SpreadOverRows(windowed, 0.5 * k_peak / size).aligned;
-  result.found = true;
-  result.pitch_mm = pitch_samples * step_mm;
-  result.pitch_stderr_mm = result.pitch_mm * k_se / k_peak;
-  result.local = LocalPitches(arcs, clamped, pitch_samples, groups, min_excess);
-  return result;
+  return ReadLattice(SumRowPowers(arcs, pixel_noise, options, leave_out), arcs, shortest, options);
 }
 
 }  // namespace weavefit

@@ -42,7 +42,10 @@ struct AxialPitchOptions {
   // stand clear of a Hann window's zero-frequency lobe, which reaches 2
   // cycles per arc and carries the body's shading: with 6 lines in view it
   // lies a cycle beyond it; with 4, inside it, where shading and the
-  // lattice's half cannot be told apart.
+  // lattice's half cannot be told apart. A relief repeating with λ itself
+  // needs as many: its fundamental's own lobe, 2 cycles either side, must
+  // clear the shading's too (on a lab render a relief read over 4.3
+  // periods, allowed for a test, came out 25 % short at 6 stated errors).
   double min_pitches = 6.0;
   // Each row's deviation from its shading is clamped to this many noise
   // sigmas: a glint line stands far above it, so lines of any brightness
@@ -57,6 +60,38 @@ struct AxialPitchOptions {
   // while a woven surface's lines over a few dozen rows stand 40 to 600
   // times above it.
   double min_contrast = 20.0;
+  // A pattern whose rows alternate from one circumferential thread to the
+  // next (`alternating`) need stand only this many times above the floor.
+  // What min_contrast guards against, weak structure that is not the
+  // weave's lattice, does not alternate at its own pitch: only the weave,
+  // its neighbouring threads half a period out of step, does (its relief
+  // under stray light, its circumferential glints), and then the pitch is
+  // λ itself. What is left to exclude is noise, whose power summed over N
+  // rows scatters by 1/√N of its floor (a quarter over 16 rows), so that
+  // its strongest bin in the band stands about twice above it.
+  double min_alternating_contrast = 4.0;
+  // A lattice is lines along the axis (the axial threads, λ/2 apart) with
+  // at least this share of its power in lines at the same azimuths from
+  // row to row (`aligned`). A plain weave's circumferential relief (under
+  // stray light, say), whose neighbouring threads are half a period out of
+  // step, repeats along a row with λ itself and keeps a share near what
+  // unrelated rows give (about 5 in 128 rows); threads along the axis,
+  // wandering, keep a third or more.
+  double min_aligned_share = 0.1;
+  // A lattice not in lines along the axis is a plain weave's relief when
+  // its rows alternate from one circumferential thread to the next with at
+  // least this share of its power (`checker`). Each thread's pattern along
+  // the arc repeats with λ, and its neighbour's, half a period out of step,
+  // is the same pattern with its fundamental's sign turned, so the rows
+  // alternate at the lattice's pitch only where that pitch is λ itself (a
+  // pattern repeating with λ/2, the relief seen alike on both flanks, turns
+  // by a whole period from thread to thread and stands in lines along the
+  // axis). Alternating rows put 8/π² ≈ 0.81 of their power at ± the
+  // frequency of the threads along the axis (a square wave's fundamental),
+  // less where the threads wander; rows of unrelated phase about 2·5/rows
+  // in any such pair of windows (0.08 over 128 rows) and rarely twice that
+  // in the strongest. Half the power lies well between the two.
+  double min_checker_share = 0.5;
   // Groups of rows for the jackknife error.
   int jackknife_groups = 8;
 
@@ -91,6 +126,12 @@ struct AxialPitch {
   double checker = 0.0;
   // The share in lines at half the fundamental frequency.
   double half_aligned = 0.0;
+  // What the lattice is: lines along the axis (aligned ≥
+  // min_aligned_share), or rows alternating from one circumferential thread
+  // to the next, a plain weave's pattern repeating with λ (not lines, and
+  // checker ≥ min_checker_share), or neither.
+  bool lines = false;
+  bool alternating = false;
   double pitches_in_arc = 0.0;   // how many pitches the analysed arc holds
   int rows_used = 0;
   // The pitch along stretches of the arcs at least 5 pitches long, where

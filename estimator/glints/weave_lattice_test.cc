@@ -150,6 +150,31 @@ TEST(AxialPitchTest, ThreadsAlternatingAlongTheAxisAreACheckerboard) {
   EXPECT_GT(p->checker, 0.6);
 }
 
+// Structure that is not the weave's lattice stands up to about 9 times
+// above the spectra's floor, so lines along the axis must stand 20 times
+// above it; rows alternating from one thread to the next are the weave's
+// own pattern, and need only stand clear of noise.
+TEST(AxialPitchTest, AWeakCheckerboardIsALatticeWhereWeakLinesAreNot) {
+  const double pitch = 0.9;
+  const double height = 0.0013;  // a little over half the noise: about 12 times the floor
+  absl::StatusOr<AxialPitch> along =
+      EstimateAxialPitch({Lines(pitch, 64, 1500, height, 0.002, 0.0, 4, 0.0)}, kStepPx, 0.002, {});
+  absl::StatusOr<AxialPitch> checker =
+      EstimateAxialPitch({Lines(pitch, 64, 1500, height, 0.002, 0.0, 4, 0.5)}, kStepPx, 0.002, {});
+  ASSERT_TRUE(along.ok() && checker.ok());
+  const AxialPitchOptions options;
+  for (const AxialPitch* p : {&*along, &*checker}) {
+    EXPECT_GT(p->contrast, options.min_alternating_contrast);
+    EXPECT_LT(p->contrast, options.min_contrast);
+  }
+  EXPECT_FALSE(along->found);
+  EXPECT_NE(along->reason.find("20 needed"), std::string::npos) << along->reason;
+  ASSERT_TRUE(checker->found) << checker->reason;
+  EXPECT_TRUE(checker->alternating);
+  EXPECT_FALSE(checker->lines);
+  EXPECT_NEAR(checker->pitch_mm, pitch, 0.01 * pitch);
+}
+
 // A plain weave's period at half the lines' frequency lies in a
 // checkerboard (every other line brighter, neighbouring rows half a period
 // out of step, as a lobe's circumferential glints are); every other line
@@ -196,12 +221,20 @@ TEST(AxialPitchTest, CausticsLeftOutLeaveTheLinesAlone) {
   EXPECT_GT(p->aligned, 0.9);
 }
 
+// Noise alone, over as few rows as a short cylinder gives or as many as the
+// band holds, stands below even the contrast a checkerboard needs.
 TEST(AxialPitchTest, NoiseAloneHasNoLattice) {
-  absl::StatusOr<AxialPitch> p =
-      EstimateAxialPitch({Lines(1.0, 48, 3000, 0.0, 0.002)}, kStepPx, 0.002, {});
-  ASSERT_TRUE(p.ok()) << p.status();
-  EXPECT_FALSE(p->found);
-  EXPECT_NE(p->reason.find("no lattice"), std::string::npos) << p->reason;
+  const AxialPitchOptions options;
+  for (int rows : {16, 48, 128}) {
+    for (std::uint32_t seed = 1; seed <= 6; ++seed) {
+      absl::StatusOr<AxialPitch> p =
+          EstimateAxialPitch({Lines(1.0, rows, 3000, 0.0, 0.002, 0.0, seed)}, kStepPx, 0.002, {});
+      ASSERT_TRUE(p.ok()) << p.status();
+      EXPECT_FALSE(p->found) << rows << " rows, seed " << seed;
+      EXPECT_NE(p->reason.find("no lattice"), std::string::npos) << p->reason;
+      EXPECT_LT(p->contrast, options.min_alternating_contrast) << rows << " rows, seed " << seed;
+    }
+  }
 }
 
 TEST(AxialPitchTest, TooFewLinesInViewAreNotCounted) {

@@ -277,15 +277,23 @@ absl::StatusOr<CombFitResult> FitCombOverLobe(
   return FitGlintComb(*pixels, *rows, model, wavelength_mm, options);
 }
 
-// Marks the split and what leans on it (max slope, wavelength, amplitude)
-// unresolved, their values kept, and says why.
-void LeaveSplitUnresolved(const std::string& why, Estimate* estimate) {
+// Marks the split and what leans on it (max slope, amplitude, and the
+// wavelength unless `keep_wavelength`: a period read from a lattice, not
+// from the glints between the caustics) unresolved, their values kept, and
+// says why.
+void LeaveSplitUnresolved(const std::string& why, Estimate* estimate,
+                          bool keep_wavelength = false) {
   for (Quantity* q : {&estimate->peak_spacing_rad, &estimate->max_slope,
                       &estimate->wavelength_mm, &estimate->amplitude_mm}) {
+    if (q == &estimate->wavelength_mm && keep_wavelength) continue;
     q->resolved = false;
   }
-  estimate->warnings.push_back(
-      absl::StrCat("split, max slope, wavelength and amplitude not resolved: ", why));
+  estimate->warnings.push_back(absl::StrCat(
+      keep_wavelength && estimate->wavelength_mm.resolved
+          ? "split, max slope and amplitude not resolved (the wavelength, read from the weave's "
+            "lattice, stands): "
+          : "split, max slope, wavelength and amplitude not resolved: ",
+      why));
 }
 
 // What the limbs' placement adds to the errors of the peak spacing, the
@@ -508,14 +516,8 @@ double OverturnReach(const ThreadPitch& threads) {
 }
 
 // Whether a lattice is the lines of threads running along the axis, λ/2
-// apart: most of its power in lines at the same azimuths from row to row.
-// A plain weave's circumferential relief (under stray light, say), whose
-// neighbouring threads are half a period out of step, repeats along a row
-// with λ itself and keeps a share near what unrelated rows give (about 5 in
-// 128 rows); threads along the axis, wandering, keep a third or more.
-constexpr double kMinAlignedShare = 0.1;
-
-bool LinesAlongTheAxis(const AxialPitch& pitch) { return pitch.aligned >= kMinAlignedShare; }
+// apart (AxialPitchOptions::min_aligned_share).
+bool LinesAlongTheAxis(const AxialPitch& pitch) { return pitch.lines; }
 // Read across the lobe, a lattice holds the lobe's glints too, and a
 // sawtooth's two caustic columns stand at fixed azimuths in every other
 // thread: aligned power that is not the axial threads'. There it must hold
@@ -541,24 +543,10 @@ double CoarserLines(const AxialPitch& pitch) {
          std::max(pitch.contrast * pitch.aligned, 1e-12);
 }
 
-// Whether a lattice that is not lines along the axis is a plain weave's
-// relief: rows that alternate from one circumferential thread to the next
-// (AxialPitch::checker). Each thread's pattern along the arc repeats with
-// λ, and its neighbour's, half a period out of step, is the same pattern
-// with its fundamental's sign turned, so the rows alternate at the
-// lattice's pitch only where that pitch is λ itself (a pattern repeating
-// with λ/2, the relief seen alike on both flanks, turns by a whole period
-// from thread to thread and stands in lines along the axis). Alternating
-// rows put 8/π² ≈ 0.81 of their power at ± the frequency of the threads
-// along the axis (a square wave's fundamental), less where the threads
-// wander; rows of unrelated phase about 2·5/rows in any such pair of
-// windows (0.08 over 128 rows) and rarely twice that in the strongest.
-// Half the power lies well between the two.
-constexpr double kMinCheckerShare = 0.5;
-
-bool RowsAlternate(const AxialPitch& pitch) {
-  return pitch.found && !LinesAlongTheAxis(pitch) && pitch.checker >= kMinCheckerShare;
-}
+// Whether a lattice is a plain weave's pattern repeating with λ itself:
+// rows that alternate from one circumferential thread to the next
+// (AxialPitchOptions::min_checker_share).
+bool RowsAlternate(const AxialPitch& pitch) { return pitch.found && pitch.alternating; }
 
 // The axial threads' pitch (glints/weave_lattice.h) over the lit and visible
 // surface beside the lobe, whose circumferential glints repeat with λ and
@@ -803,7 +791,7 @@ const char* LatticeWhere(const LatticeReading& lattice) {
 }
 
 // What the lattice of glint lines said, for a wavelength left unresolved.
-std::string LatticeWords(const LatticeReading& lattice) {
+std::string LatticeWords(const LatticeReading& lattice, const AxialPitchOptions& options) {
   const AxialPitch& p = lattice.pitch;
   if (!p.found) return p.reason;
   const char* where = LatticeWhere(lattice);
@@ -813,7 +801,7 @@ std::string LatticeWords(const LatticeReading& lattice) {
         "its power in them) nor in rows alternating from one circumferential thread to the "
         "next, as a plain weave's relief would (%.0f%%, %.0f%% needed), so nothing tells the "
         "period from half of it, and the comb of glints confirmed neither it nor twice it",
-        where, p.pitch_mm, 100.0 * p.aligned, 100.0 * p.checker, 100.0 * kMinCheckerShare);
+        where, p.pitch_mm, 100.0 * p.aligned, 100.0 * p.checker, 100.0 * options.min_checker_share);
   }
   if (!lattice.beside_lobe && p.aligned < kMinAlignedAcrossLobe) {
     return absl::StrFormat(
@@ -1136,14 +1124,16 @@ WavelengthReading ReadWavelength(const Image& luminance, const CylinderGeometry&
 }
 
 // The glints' reading applied: the comb's numbers, or its period alone, or
-// the lattice's, or why the wavelength is unresolved.
-void ApplyWavelength(const WavelengthReading& reading, const Acquisition& acquisition,
+// the lattice's, or why the wavelength is unresolved. True where the period
+// came from the lattice alone (lines along the axis or a plain weave's
+// relief), which stands without the caustics.
+bool ApplyWavelength(const WavelengthReading& reading, const Acquisition& acquisition,
                      const PeakPickingResult& peaks, const EstimateOptions& options,
                      bool sawtooth_read, Estimate* estimate) {
   const LatticeReading& lattice = reading.lattice;
   if (reading.period_only) {
     ApplyCombPeriod(*reading.period_only, options.comb, lattice.threads, acquisition, estimate);
-    return;
+    return false;
   }
   if (const std::optional<CombFitResult>& best = reading.best) {
     // The model a confirmed comb names (select/): a sinusoid, unless the
@@ -1155,7 +1145,7 @@ void ApplyWavelength(const WavelengthReading& reading, const Acquisition& acquis
           "period, but the lobe's shape is a sawtooth's (its fit beats the sinusoid's by %.0f "
           "BIC per independent bin), and a sawtooth's glints do not repeat along the arc",
           best->wavelength_mm, estimate->model_evidence));
-      return;
+      return false;
     }
     estimate->model = model;
     ApplyCombFit(*best, options.comb, acquisition, peaks.mirror_rad, estimate);
@@ -1168,18 +1158,20 @@ void ApplyWavelength(const WavelengthReading& reading, const Acquisition& acquis
           "along the arc with a %.3f mm period, which a sawtooth's do not",
           best->wavelength_mm));
     }
-    return;
+    return false;
   }
   if (reading.lattice_alone) {
     ApplyLatticePeriod(lattice, acquisition, reading.comb_failure, estimate);
-    return;
+    return true;
   }
   if (RowsAlternate(lattice.pitch)) {
     ApplyReliefPeriod(lattice, acquisition, reading.comb_failure, estimate);
-    return;
+    return true;
   }
-  estimate->warnings.push_back(absl::StrCat("wavelength and amplitude unresolved: ",
-                                            LatticeWords(lattice), "; ", reading.period_failure));
+  estimate->warnings.push_back(
+      absl::StrCat("wavelength and amplitude unresolved: ", LatticeWords(lattice, options.lattice),
+                   "; ", reading.period_failure));
+  return false;
 }
 
 // Whether the glints can time the period at all: a split whose max slope
@@ -1609,6 +1601,7 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
                                          per_spacing * limbs.spacing_systematic_rad);
     }
   }
+  bool period_from_lattice = false;
   if (options.mode == Mode::kFast) {
     estimate.warnings.push_back(
         "wavelength and amplitude not analysed: fast mode reads the profile's peaks only "
@@ -1619,7 +1612,8 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
       const WavelengthReading reading = early_glints && sawtooth_read == predicted_sawtooth
                                             ? *std::move(early_glints)
                                             : read_glints(sawtooth_read);
-      ApplyWavelength(reading, acquisition, *peaks, options, sawtooth_read, &estimate);
+      period_from_lattice =
+          ApplyWavelength(reading, acquisition, *peaks, options, sawtooth_read, &estimate);
     }
     if (absl::Status s = clock.Lap("glints"); !s.ok()) return s;
   }
@@ -1651,7 +1645,19 @@ absl::StatusOr<Estimate> EstimateWithDiameter(const Image& image, const Acquisit
                                  ") is judged from the level between the peaks beside the limb, "
                                  "where a Lambertian term can fill a sawtooth's valley and faint "
                                  "glints leave a sinusoid's looking empty: treat it as uncertain")),
-          &estimate);
+          &estimate, period_from_lattice);
+      if (period_from_lattice) {
+        // A lattice's period stands apart from the caustics, but its scale
+        // is the radius's, and the limb the caustic drew out by up to
+        // kMinCausticToLimbPx moves the radius by half that: counted as
+        // uniform within it, systematic but not common to the sample's
+        // photographs (the caustic's place depends on the phase angle).
+        Quantity& lambda = estimate.wavelength_mm;
+        const double pull = lambda.value * kMinCausticToLimbPx /
+                            (2.0 * std::sqrt(3.0) * estimate.cylinder.radius_px);
+        lambda.systematic = std::hypot(lambda.systematic, pull);
+        lambda.stderr_value = std::hypot(lambda.stderr_value, pull);
+      }
     }
   }
   if (estimate.method != "comb-fit" && estimate.peak_spacing_rad.resolved &&

@@ -172,7 +172,7 @@ TEST(PhaseChecksTest, AnOuterCausticAtTheLimbKeepsTheSeenLimbs) {
 // inside the lit limb (R = 256 px). The limb fit took the peak for part of
 // the edge (2.2 px out) and the spacing came out 3.4° short at 7.7 stated
 // errors; now the split is reported unresolved, with the reason.
-TEST(PhaseChecksTest, ACausticAtTheLimbLeavesTheSplitUnresolved) {
+RenderScene SawtoothWithItsCausticAtTheLimb() {
   RenderScene scene;
   scene.width_px = 640;
   scene.height_px = 480;
@@ -182,11 +182,40 @@ TEST(PhaseChecksTest, ACausticAtTheLimbLeavesTheSplitUnresolved) {
   scene.amplitude_mm = 0.1236;
   scene.phase_angle_deg = -118.4;
   scene.seed = 112;
-  absl::StatusOr<Estimate> e = EstimateAtItsPhaseAngle(scene);
+  return scene;
+}
+
+TEST(PhaseChecksTest, ACausticAtTheLimbLeavesTheSplitUnresolved) {
+  absl::StatusOr<Estimate> e = EstimateAtItsPhaseAngle(SawtoothWithItsCausticAtTheLimb());
   ASSERT_TRUE(e.ok()) << e.status();
   EXPECT_FALSE(e->peak_spacing_rad.resolved) << e->peak_spacing_rad.value / kDeg;
   EXPECT_FALSE(e->max_slope.resolved);
   EXPECT_TRUE(HasWarning(*e, "inside the limb")) << e->warnings.size();
+}
+
+// The same sawtooth under stray light, which shows the plain weave's relief:
+// the relief's period stands apart from the caustics, so the wavelength is
+// kept (its error counting the limb the caustic may have drawn out), while
+// the split, the slope and the amplitude stay unresolved.
+TEST(PhaseChecksTest, ACausticAtTheLimbKeepsTheReliefsWavelength) {
+  RenderScene scene = SawtoothWithItsCausticAtTheLimb();
+  scene.stray_light = 0.04;
+  scene.stray_texture = 0.6;
+  absl::StatusOr<Rendered> rendered = RenderPhotograph(scene);
+  ASSERT_TRUE(rendered.ok()) << rendered.status();
+  Acquisition acquisition;
+  acquisition.phase_angle_rad = scene.phase_angle_deg * kDeg;
+  acquisition.cylinder_diameter_mm = scene.diameter_mm;
+  absl::StatusOr<Estimate> e = EstimateFromImage(rendered->image, acquisition, EstimateOptions());
+  ASSERT_TRUE(e.ok()) << e.status();
+  EXPECT_FALSE(e->peak_spacing_rad.resolved) << e->peak_spacing_rad.value / kDeg;
+  EXPECT_FALSE(e->max_slope.resolved);
+  EXPECT_FALSE(e->amplitude_mm.resolved);
+  EXPECT_TRUE(HasWarning(*e, "inside the limb")) << e->warnings.size();
+  ASSERT_TRUE(e->wavelength_mm.resolved);
+  EXPECT_TRUE(HasWarning(*e, "the weave's relief"));
+  EXPECT_NEAR(e->wavelength_mm.value, scene.wavelength_mm, 3.0 * e->wavelength_mm.stderr_value);
+  EXPECT_LT(e->wavelength_mm.stderr_value, 0.05 * scene.wavelength_mm);
 }
 
 // The bench sweep's scene (m 0.24, 1.44 mm = 16 px per period, α = 30°) at
