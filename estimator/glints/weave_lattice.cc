@@ -454,8 +454,9 @@ AxialPitch ReadLattice(const RowPower& rp, const std::vector<ArcSignals>& arcs, 
     return absl::StrFormat(
         "no lattice of thread glints: the rows' spectra peak at most %.1f times above their "
         "floor, %.0f needed (%.0f where the rows alternate from one circumferential thread to "
-        "the next, as a plain weave's do%s)",
-        result.contrast, options.min_contrast, options.min_alternating_contrast, rows);
+        "the next with %.0f%% of its power, as a plain weave's do%s)",
+        result.contrast, options.min_contrast, options.min_alternating_contrast,
+        100.0 * options.min_weak_checker_share, rows);
   };
   if (k0 < 0.0 ||
       result.contrast < std::min(options.min_contrast, options.min_alternating_contrast)) {
@@ -492,9 +493,8 @@ AxialPitch ReadLattice(const RowPower& rp, const std::vector<ArcSignals>& arcs, 
         result.pitches_in_arc, options.min_pitches);
     return result;
   }
-  if (!strong && !result.alternating) {
-    result.reason =
-        too_weak(absl::StrFormat("; these hold %.0f%% of their power so", 100.0 * result.checker));
+  if (!strong && !(result.alternating && result.checker >= options.min_weak_checker_share)) {
+    result.reason = too_weak(absl::StrFormat("; these hold %.0f%%", 100.0 * result.checker));
     return result;
   }
   result.found = true;
@@ -510,11 +510,13 @@ absl::Status AxialPitchOptions::Validate() const {
   if (!(min_px_per_pitch > 0.0) || !(min_pitches >= 2.0) || !(clamp_sigmas > 0.0) ||
       !(min_contrast > 1.0) || !(min_alternating_contrast > 1.0) ||
       !(min_aligned_share > 0.0 && min_aligned_share <= 1.0) ||
-      !(min_checker_share > 0.0 && min_checker_share <= 1.0) || jackknife_groups < 2) {
+      !(min_checker_share > 0.0 && min_checker_share <= 1.0) ||
+      !(min_weak_checker_share > 0.0 && min_weak_checker_share <= 1.0) || jackknife_groups < 2) {
     return absl::InvalidArgumentError(
         "axial pitch options: min_px_per_pitch and clamp_sigmas must be positive, min_pitches at "
-        "least 2, min_contrast and min_alternating_contrast above 1, min_aligned_share and "
-        "min_checker_share within (0, 1] and jackknife_groups at least 2");
+        "least 2, min_contrast and min_alternating_contrast above 1, min_aligned_share, "
+        "min_checker_share and min_weak_checker_share within (0, 1] and jackknife_groups at least "
+        "2");
   }
   return absl::OkStatus();
 }
