@@ -6,8 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "estimator/pipeline/estimate.h"
@@ -173,6 +175,25 @@ TEST(AxialPitchTest, AWeakCheckerboardIsALatticeWhereWeakLinesAreNot) {
   EXPECT_TRUE(checker->alternating);
   EXPECT_FALSE(checker->lines);
   EXPECT_NEAR(checker->pitch_mm, pitch, 0.01 * pitch);
+}
+
+// A faint pattern whose rows alternate in part only (36 of 64 rows a
+// checkerboard, the rest of unrelated phase) is not taken for the weave's:
+// below the strong contrast the rows must alternate with more of its power
+// than a strong lattice's rows must.
+TEST(AxialPitchTest, AFaintPatternAlternatingInPartIsNoLattice) {
+  const double pitch = 0.9;
+  ArcSignals s = Lines(pitch, 64, 1500, 0.0013, 0.002, 0.0, 4, 0.5);
+  const ArcSignals unrelated = Lines(pitch, 64, 1500, 0.0013, 0.002, 0.0, 5);
+  std::copy(unrelated.values.begin() + 36 * 1500, unrelated.values.end(),
+            s.values.begin() + 36 * 1500);
+  absl::StatusOr<AxialPitch> p = EstimateAxialPitch({s}, kStepPx, 0.002, {});
+  ASSERT_TRUE(p.ok()) << p.status();
+  EXPECT_LT(p->contrast, AxialPitchOptions().min_contrast);
+  EXPECT_GE(p->checker, AxialPitchOptions().min_checker_share);
+  EXPECT_LT(p->checker, AxialPitchOptions().min_weak_checker_share);
+  EXPECT_FALSE(p->found) << p->checker;
+  EXPECT_NE(p->reason.find("these hold"), std::string::npos) << p->reason;
 }
 
 // A plain weave's period at half the lines' frequency lies in a
